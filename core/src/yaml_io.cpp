@@ -37,7 +37,14 @@ YamlNode YamlNode::LoadFile(const std::string& path) {
   return LoadString(buffer.str(), path);
 }
 
-YamlNode YamlNode::LoadString(const std::string& text, const std::string& source_name) {
+YamlNode YamlNode::LoadString(const std::string& text_in, const std::string& source_name) {
+  // OpenCV's FileStorage (and so Kalibr/EuRoC files) start with "%YAML:1.0", which is not a
+  // valid YAML 1.2 directive: blank that first line (keeping line numbers) before parsing.
+  std::string text = text_in;
+  if (text.rfind("%YAML:", 0) == 0) {
+    const std::size_t eol = text.find('\n');
+    text.replace(0, eol == std::string::npos ? text.size() : eol, "");
+  }
   try {
     YAML::Node root = YAML::Load(text);
     return YamlNode(root, source_name, "");

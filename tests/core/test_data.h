@@ -1,0 +1,53 @@
+// Helpers for tests that use files: the shared real-data slices and temporary folders.
+#pragma once
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <random>
+#include <string>
+
+namespace vilma::testing {
+
+// ../shared/data (VILMA_SHARED_DATA_DIR), or "" when absent.
+inline std::string SharedDataDir() {
+  const std::filesystem::path dir(VILMA_SHARED_DATA_DIR);
+  return std::filesystem::is_directory(dir) ? dir.string() : std::string();
+}
+
+inline std::string EurocMicroDir() {
+  const std::string shared = SharedDataDir();
+  return shared.empty() ? shared : shared + "/euroc_V1_01_micro";
+}
+
+// A fresh, empty temporary folder removed when the object goes out of scope.
+class TempDir {
+ public:
+  TempDir() {
+    std::random_device rd;
+    path_ = std::filesystem::temp_directory_path() /
+            ("vilma_test_" + std::to_string(rd()) + std::to_string(rd()));
+    std::filesystem::create_directories(path_);
+  }
+  ~TempDir() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  std::string path() const { return path_.string(); }
+  std::string File(const std::string& name) const { return (path_ / name).string(); }
+
+ private:
+  std::filesystem::path path_;
+};
+
+}  // namespace vilma::testing
+
+// Skips the rest of a test (with a visible warning) when the shared data is not there.
+#define VILMA_REQUIRE_SHARED_DATA(dir)                                                \
+  do {                                                                                \
+    if ((dir).empty()) {                                                              \
+      WARN("skipped: ../shared/data not found (set VILMA_SHARED_DATA_DIR at cmake)"); \
+      return;                                                                         \
+    }                                                                                 \
+  } while (0)
