@@ -1,0 +1,27 @@
+// What every `vilma` subcommand shares: its signature, exit codes and the usage error.
+#pragma once
+
+#include <ostream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace vilma::console {
+
+// Exit codes of `vilma` and its subcommands.
+constexpr int kExitOk = 0;
+constexpr int kExitInputError = 1;  // bad or unreadable input files, failed output
+constexpr int kExitUsage = 2;       // bad command line
+
+// A bad command line (unknown option, missing value, ...): exit code 2 plus the usage hint.
+class UsageError : public std::runtime_error {
+ public:
+  explicit UsageError(const std::string& message) : std::runtime_error(message) {}
+};
+
+// A subcommand: args are the words after the subcommand's name; report to `out`, errors to
+// `err`; returns an exit code. Never exits the process, so tests can call it directly.
+using CommandFunction = int (*)(const std::vector<std::string>& args, std::ostream& out,
+                                std::ostream& err);
+
+}  // namespace vilma::console

@@ -1,0 +1,54 @@
+// `vilma eval`: absolute and relative trajectory error of an estimate against ground truth.
+//
+//   vilma eval --gt GT --est EST [--align posyaw|se3|sim3|none] [--segments 10,20,30,40,50]
+//              [--max-dt 0.01] [--json OUT.json] [--plot OUT.png]
+//
+// GT and EST may each be TUM, EuRoC CSV or KITTI (told apart by content). The report goes to
+// stdout; --json writes the same numbers with the stable schema of docs/evaluation.md; --plot
+// renders a PNG through scripts/plot_trajectory.py (python3 + matplotlib).
+#pragma once
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "vilma/console/command.h"
+#include "vilma/core/trajectory.h"
+#include "vilma/core/trajectory_eval.h"
+
+namespace vilma::console {
+
+struct EvalCommandOptions {
+  std::string gt_path;    // --gt, required
+  std::string est_path;   // --est, required
+  EvalOptions eval;       // --align, --segments, --max-dt
+  std::string json_path;  // --json, empty: no JSON
+  std::string plot_path;  // --plot, empty: no plot
+  bool help = false;      // --help / -h
+  // Empty when valid (required paths given and eval options valid), else what is wrong.
+  std::string Validate() const;
+};
+
+// Parses the words after "eval". Accepts "--opt value" and "--opt=value". Throws UsageError
+// (unknown option, missing value, bad number, invalid options).
+EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args);
+
+void PrintEvalHelp(std::ostream& out);
+
+// Human-readable report (what `vilma eval` prints).
+void WriteEvalReport(std::ostream& out, const EvalCommandOptions& options, const Trajectory& gt,
+                     const Trajectory& est, const EvalResult& result);
+
+// JSON document, schema_version 1 (docs/evaluation.md lists the keys).
+void WriteEvalJson(std::ostream& out, const EvalCommandOptions& options, const Trajectory& gt,
+                   const Trajectory& est, const EvalResult& result);
+
+// Writes the matched, aligned trajectories as CSV for the plot script:
+// t_s,gt_x,gt_y,gt_z,est_x,est_y,est_z,translation_error_m,rotation_error_deg (t_s relative to
+// the first matched pose; index when there are no time stamps).
+void WritePlotCsv(std::ostream& out, const EvalResult& result);
+
+// The whole command; returns kExitOk, kExitInputError or kExitUsage.
+int RunEvalCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace vilma::console

@@ -1,0 +1,83 @@
+// `vilma`: the offline command, a dispatcher over subcommands (`vilma <subcommand> ...`).
+// New subcommands are one row in kSubcommands; each one parses its own arguments and returns
+// an exit code (console/command.h: 0 ok, 1 input error, 2 usage error).
+#include <algorithm>
+#include <cstring>
+#include <exception>
+#include <iostream>
+#include <string>
+#include <vector>
+
+#include "vilma/console/command.h"
+#include "vilma/console/eval_command.h"
+
+namespace {
+
+using vilma::console::CommandFunction;
+
+struct Subcommand {
+  const char* name;
+  const char* summary;  // one line for `vilma --help`
+  CommandFunction run;
+};
+
+const Subcommand kSubcommands[] = {
+    {"eval", "trajectory error (ATE, RPE) of an estimate against ground truth",
+     &vilma::console::RunEvalCommand},
+};
+
+void PrintUsage(std::ostream& out) {
+  out << "usage: vilma <subcommand> [options]\n"
+         "       vilma <subcommand> --help\n"
+         "\n"
+         "subcommands:\n";
+  for (const Subcommand& s : kSubcommands) {
+    std::string name = s.name;
+    name.resize(std::max<std::size_t>(name.size() + 2, 12), ' ');
+    out << "  " << name << s.summary << "\n";
+  }
+  out << "\nexit codes: 0 ok, 1 input error, 2 usage error\n";
+}
+
+const Subcommand* Find(const std::string& name) {
+  for (const Subcommand& s : kSubcommands) {
+    if (name == s.name) return &s;
+  }
+  return nullptr;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    PrintUsage(std::cerr);
+    return vilma::console::kExitUsage;
+  }
+  const std::string first = argv[1];
+  if (first == "--help" || first == "-h") {
+    PrintUsage(std::cout);
+    return vilma::console::kExitOk;
+  }
+  std::vector<std::string> args(argv + 2, argv + argc);
+  std::string name = first;
+  if (first == "help") {  // `vilma help eval` == `vilma eval --help`
+    if (args.empty()) {
+      PrintUsage(std::cout);
+      return vilma::console::kExitOk;
+    }
+    name = args[0];
+    args = {"--help"};
+  }
+  const Subcommand* command = Find(name);
+  if (command == nullptr) {
+    std::cerr << "vilma: unknown subcommand '" << name << "'\n\n";
+    PrintUsage(std::cerr);
+    return vilma::console::kExitUsage;
+  }
+  try {
+    return command->run(args, std::cout, std::cerr);
+  } catch (const std::exception& e) {  // subcommands catch their own; this is the backstop
+    std::cerr << "vilma " << name << ": error: " << e.what() << "\n";
+    return vilma::console::kExitInputError;
+  }
+}

@@ -1,0 +1,160 @@
+// Trajectory evaluation against ground truth, following rpg_trajectory_evaluation (Zhang and
+// Scaramuzza, "A Tutorial on Quantitative Trajectory Evaluation for Visual(-Inertial)
+// Odometry", IROS 2018) and evo (Grupp 2017). The conventions and where they differ from those
+// tools are written down in docs/evaluation.md.
+//
+//   1. Associate: pair each estimate pose with a ground-truth pose (time stamps within
+//      max_dt, nearest first, each pose used at most once), or by index without stamps.
+//   2. Align: find S_G_E (rotation R, translation t, scale s) mapping the estimate's world E
+//      onto the ground truth's world G from ALL matched positions: p_G = s R p_E + t.
+//   3. ATE: per matched pose, |p_gt - p_est'| [m] and angle(R_gt^T R_est') [deg] of the aligned
+//      estimate; RMSE, mean, median, max.
+//   4. RPE: distance-based segments along the ground-truth path; per start pose i the first pose
+//      j with path(j) - path(i) >= d; error E = (T_gt_i^-1 T_gt_j)^-1 (T_est_i^-1 T_est_j),
+//      translation |t_E| [m] and 100 |t_E| / d [%], rotation angle(R_E) [deg].
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "vilma/core/geometry.h"
+#include "vilma/core/trajectory.h"
+
+namespace vilma {
+
+// ---- association ----
+
+struct AssociationOptions {
+  // Largest |t_gt - t_est| [s] of a matched pair: 10 ms, as evo's default --t_max_diff 0.01 and
+  // TUM's associate.py 0.02 (here tighter, ground truth usually comes at >= 100 Hz).
+  double max_dt_s = 0.01;
+  // Empty when valid, else what is wrong.
+  std::string Validate() const;
+};
+
+// Matched pairs, ordered by estimate time: gt.T_W_B[gt_index[k]] <-> est.T_W_B[est_index[k]].
+struct Association {
+  std::vector<std::size_t> gt_index;
+  std::vector<std::size_t> est_index;
+  // True when one of the trajectories has no time stamps (KITTI): pairs are (k, k) for
+  // k < min(gt.size(), est.size()); the caller decides whether a size mismatch is an error.
+  bool by_index = false;
+  std::size_t size() const { return gt_index.size(); }
+};
+
+// Time association as TUM's associate.py: all pairs with |t_gt - t_est| <= max_dt are
+// candidates; they are accepted in increasing |dt| (ties: earlier estimate, then earlier gt) when
+// neither pose is used yet. So each pose is used at most once and every estimate gets its
+// nearest free ground-truth pose. O((n + m) log + candidates).
+Association AssociateTrajectories(const Trajectory& gt, const Trajectory& est,
+                                  const AssociationOptions& options);
+
+// ---- alignment ----
+
+enum class AlignmentType {
+  kPosYaw,  // 4-DoF: yaw about gravity (z) + translation; VIO's unobservable directions
+  kSe3,     // 6-DoF rigid: Umeyama without scale
+  kSim3,    // 7-DoF: Umeyama with scale; monocular VO
+  kNone,    // identity
+};
+// "posyaw", "se3", "sim3", "none".
+const char* AlignmentTypeName(AlignmentType type);
+// Parses the names above; false for anything else.
+bool ParseAlignmentType(const std::string& name, AlignmentType* type);
+
+// The similarity S_G_E: p_G = scale * (R_G_E p_E) + p_G_E, and R_G_B = R_G_E R_E_B.
+struct Alignment {
+  AlignmentType type = AlignmentType::kNone;
+  Transformation T_G_E;  // rotation R_G_E and translation p_G_E
+  double scale = 1.0;    // 1 unless kSim3
+
+  // Applies S_G_E to a pose T_E_B: (R_G_E R_E_B, s R_G_E p_E_B + p_G_E).
+  Transformation Apply(const Transformation& T_E_B) const;
+};
+
+// Minimum number of matched positions each alignment needs: none 0 (but evaluation needs 1),
+// posyaw 2, se3 and sim3 3 (non-collinear for a unique rotation).
+std::size_t MinimumPosesForAlignment(AlignmentType type);
+
+// Umeyama 1991 ("Least-squares estimation of transformation parameters between two point
+// patterns", PAMI 13(4)): minimizes sum_i |p_G_i - (s R p_E_i + t)|^2 in closed form via the
+// SVD of the cross-covariance, with the reflection fix (eq. 39-43). with_scale false -> s = 1.
+// Requires p_G.size() == p_E.size() >= 3 (std::invalid_argument otherwise).
+Alignment AlignUmeyama(const std::vector<Eigen::Vector3d>& p_G,
+                       const std::vector<Eigen::Vector3d>& p_E, bool with_scale);
+
+// Position + yaw: minimizes sum_i |p_G_i - (Rz(theta) p_E_i + t)|^2 over theta and t, closed
+// form: with centred points, theta = atan2(sum (x_E y_G - y_E x_G), sum (x_E x_G + y_E y_G)),
+// t = mean_G - Rz(theta) mean_E. Requires >= 2 points (std::invalid_argument otherwise).
+Alignment AlignPositionYaw(const std::vector<Eigen::Vector3d>& p_G,
+                           const std::vector<Eigen::Vector3d>& p_E);
+
+// Dispatches on type (kNone -> identity).
+Alignment AlignPositions(AlignmentType type, const std::vector<Eigen::Vector3d>& p_G,
+                         const std::vector<Eigen::Vector3d>& p_E);
+
+// ---- statistics ----
+
+struct ErrorStats {
+  std::size_t count = 0;
+  double rmse = 0.0;
+  double mean = 0.0;
+  double median = 0.0;  // mean of the two middle values for an even count
+  double std_dev = 0.0; // population standard deviation
+  double min = 0.0;
+  double max = 0.0;
+};
+// All zeros for an empty input.
+ErrorStats ComputeErrorStats(const std::vector<double>& values);
+
+// ---- evaluation ----
+
+struct EvalOptions {
+  AlignmentType alignment = AlignmentType::kPosYaw;  // the VIO default (see docs/evaluation.md)
+  // RPE segment lengths [m] along the ground-truth path; each > 0.
+  std::vector<double> segment_lengths_m = {10.0, 20.0, 30.0, 40.0, 50.0};
+  AssociationOptions association;
+  std::string Validate() const;
+};
+
+struct AbsoluteError {
+  ErrorStats translation_m;
+  ErrorStats rotation_deg;
+  // Per matched pose, in association order.
+  std::vector<double> translation_errors_m;
+  std::vector<double> rotation_errors_deg;
+};
+
+struct RelativeError {
+  double length_m = 0.0;
+  std::size_t pairs = 0;  // 0 when the ground-truth path is shorter than length_m
+  ErrorStats translation_m;
+  ErrorStats translation_percent;  // 100 * translation / length_m
+  ErrorStats rotation_deg;
+};
+
+struct EvalResult {
+  Association association;
+  Alignment alignment;
+  // Matched poses in association order: stamps (estimate's), ground truth T_G_B and the
+  // aligned estimate S_G_E T_E_B.
+  std::vector<int64_t> t_ns;
+  std::vector<Transformation> T_G_B_gt;
+  std::vector<Transformation> T_G_B_est;
+  double gt_path_length_m = 0.0;  // along the matched ground-truth poses
+  AbsoluteError ate;
+  std::vector<RelativeError> rpe;  // one per options.segment_lengths_m, same order
+};
+
+// Distance-based RPE over matched, aligned poses (see the header comment). Exposed for tests.
+RelativeError ComputeRelativeError(const std::vector<Transformation>& T_G_B_gt,
+                                   const std::vector<Transformation>& T_G_B_est, double length_m);
+
+// The whole pipeline. Throws InputError when too few poses match for the alignment (message
+// says how many matched and how many are needed), std::invalid_argument for invalid options.
+EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est,
+                              const EvalOptions& options);
+
+}  // namespace vilma

@@ -1,0 +1,259 @@
+#include "vilma/core/trajectory_eval.h"
+
+#include <catch2/catch.hpp>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "vilma/core/error.h"
+
+namespace vilma {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180.0;
+
+Eigen::Quaterniond Rz(double a) { return Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ())); }
+Eigen::Quaterniond Rx(double a) { return Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX())); }
+
+// A 3D loop with changing heading, roll and pitch: 400 poses at 10 Hz, ~100 m of path.
+Trajectory MakeLoop(std::size_t n = 400) {
+  Trajectory t;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double s = 0.1 * static_cast<double>(i);  // [s]
+    const Eigen::Vector3d p(8.0 * std::cos(0.25 * s), 5.0 * std::sin(0.5 * s),
+                            1.0 + 0.5 * std::sin(0.3 * s));
+    const Eigen::Quaterniond q =
+        ExpSO3(Eigen::Vector3d(0.1 * std::sin(0.7 * s), 0.05 * std::cos(0.4 * s), 0.25 * s));
+    t.Add(1000000000 + static_cast<int64_t>(i) * 100000000, Transformation(q, p));
+  }
+  return t;
+}
+
+// est = S_E_G applied to every pose of gt: T_E_B = (R R_G_B, s R p_G_B + t).
+Trajectory Transform(const Trajectory& gt, const Transformation& T_E_G, double scale) {
+  Trajectory est = gt;
+  for (auto& T : est.T_W_B) {
+    T = Transformation(T_E_G.rotation() * T.rotation(),
+                       scale * (T_E_G.rotation() * T.translation()) + T_E_G.translation());
+  }
+  return est;
+}
+
+EvalOptions Options(AlignmentType type) {
+  EvalOptions o;
+  o.alignment = type;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("ComputeErrorStats by hand", "[eval]") {
+  const ErrorStats s = ComputeErrorStats({4.0, 1.0, 3.0, 2.0});
+  CHECK(s.count == 4);
+  CHECK(s.mean == 2.5);
+  CHECK(s.median == 2.5);
+  CHECK(s.rmse == Approx(std::sqrt(7.5)));
+  CHECK(s.min == 1.0);
+  CHECK(s.max == 4.0);
+  CHECK(s.std_dev == Approx(std::sqrt(1.25)));
+  CHECK(ComputeErrorStats({3.0, 1.0, 2.0}).median == 2.0);
+  CHECK(ComputeErrorStats({}).count == 0);
+}
+
+TEST_CASE("association: tolerance, nearest first, each gt once, dropped stamps", "[eval]") {
+  Trajectory gt, est;
+  for (int64_t ms : {0, 100, 200, 300, 400}) gt.Add(ms * 1000000, Transformation());
+  // 3 -> 0; 95 and 102 compete for 100: 102 is nearer and wins, 95 has no other gt in reach;
+  // 105 would be 5 ms from 100 but 100 is taken -> dropped; 250 is 50 ms from anything;
+  // 409 -> 400 (9 ms).
+  for (int64_t ms : {3, 95, 102, 105, 250, 409}) est.Add(ms * 1000000, Transformation());
+  AssociationOptions options;  // 10 ms
+  const Association a = AssociateTrajectories(gt, est, options);
+  CHECK_FALSE(a.by_index);
+  CHECK(a.est_index == std::vector<std::size_t>{0, 2, 5});
+  CHECK(a.gt_index == std::vector<std::size_t>{0, 1, 4});
+
+  options.max_dt_s = 0.005;  // 409 is now too far
+  const Association b = AssociateTrajectories(gt, est, options);
+  CHECK(b.est_index == std::vector<std::size_t>{0, 2});
+  CHECK(b.gt_index == std::vector<std::size_t>{0, 1});
+
+  options.max_dt_s = -1.0;
+  CHECK_FALSE(options.Validate().empty());
+}
+
+TEST_CASE("association by index when a trajectory has no stamps (KITTI)", "[eval]") {
+  Trajectory gt = MakeLoop(10);
+  gt.has_timestamps = false;
+  const Trajectory est = MakeLoop(8);
+  const Association a = AssociateTrajectories(gt, est, AssociationOptions{});
+  CHECK(a.by_index);
+  REQUIRE(a.size() == 8);
+  CHECK(a.gt_index[7] == 7);
+  CHECK(a.est_index[7] == 7);
+}
+
+TEST_CASE("SE3 and Sim3 alignment recover a known transformation", "[eval]") {
+  const Trajectory gt = MakeLoop();
+  const Transformation T_E_G(ExpSO3(Eigen::Vector3d(0.3, -0.2, 1.1)), Eigen::Vector3d(4, -7, 2));
+  SECTION("se3") {
+    const Trajectory est = Transform(gt, T_E_G, 1.0);
+    const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kSe3));
+    CHECK(r.association.size() == gt.size());
+    CHECK(r.alignment.scale == 1.0);
+    const Transformation T_G_E = T_E_G.inverse();
+    CHECK((r.alignment.T_G_E.translation() - T_G_E.translation()).norm() < 1e-9);
+    CHECK(AngleBetween(r.alignment.T_G_E.rotation(), T_G_E.rotation()) < 1e-9);
+    CHECK(r.ate.translation_m.rmse < 1e-9);
+    CHECK(r.ate.rotation_deg.rmse < 1e-6);
+    for (const auto& e : r.rpe) CHECK(e.translation_m.rmse < 1e-9);
+  }
+  SECTION("sim3") {
+    const double s_E = 0.4;  // the estimate is 0.4 times too small -> recovered scale 2.5
+    const Trajectory est = Transform(gt, T_E_G, s_E);
+    const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kSim3));
+    CHECK(r.alignment.scale == Approx(1.0 / s_E).epsilon(1e-12));
+    CHECK(AngleBetween(r.alignment.T_G_E.rotation(), T_E_G.rotation().conjugate()) < 1e-9);
+    CHECK(r.ate.translation_m.rmse < 1e-9);
+    CHECK(r.ate.rotation_deg.rmse < 1e-6);
+    // SE3 cannot fix the scale.
+    const EvalResult se3 = EvaluateTrajectory(gt, est, Options(AlignmentType::kSe3));
+    CHECK(se3.ate.translation_m.rmse > 1.0);
+  }
+}
+
+TEST_CASE("posyaw removes yaw + translation but not roll", "[eval]") {
+  const Trajectory gt = MakeLoop();
+  const Transformation yaw_only(Rz(0.8), Eigen::Vector3d(1, 2, 3));
+  const EvalResult ok =
+      EvaluateTrajectory(gt, Transform(gt, yaw_only, 1.0), Options(AlignmentType::kPosYaw));
+  CHECK(ok.ate.translation_m.rmse < 1e-9);
+  CHECK(ok.ate.rotation_deg.rmse < 1e-6);
+  CHECK(AngleBetween(ok.alignment.T_G_E.rotation(), Rz(-0.8)) < 1e-9);
+
+  // A 5 deg roll of the whole estimate (a wrong gravity direction) is observable for VIO:
+  // posyaw must leave it in the error. Every pose's rotation error is the angle of
+  // Rz(theta) Rx(5 deg), which is >= 5 deg (cos(a/2) = cos(theta/2) cos(2.5 deg)).
+  const Transformation roll(Rx(5.0 * kDeg), Eigen::Vector3d::Zero());
+  const Trajectory rolled = Transform(gt, roll, 1.0);
+  const EvalResult posyaw = EvaluateTrajectory(gt, rolled, Options(AlignmentType::kPosYaw));
+  CHECK(posyaw.ate.rotation_deg.min >= 5.0 - 1e-9);
+  CHECK(posyaw.ate.rotation_deg.max - posyaw.ate.rotation_deg.min < 1e-9);  // constant
+  CHECK(posyaw.ate.translation_m.rmse > 0.05);
+  const EvalResult se3 = EvaluateTrajectory(gt, rolled, Options(AlignmentType::kSe3));
+  CHECK(se3.ate.rotation_deg.rmse < 1e-6);
+  CHECK(se3.ate.translation_m.rmse < 1e-9);
+}
+
+TEST_CASE("a known constant offset gives a known ATE", "[eval]") {
+  const Trajectory gt = MakeLoop();
+  const Transformation offset(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.3, 0.0, -0.4));
+  const Trajectory est = Transform(gt, offset, 1.0);
+  const EvalResult none = EvaluateTrajectory(gt, est, Options(AlignmentType::kNone));
+  CHECK(none.alignment.type == AlignmentType::kNone);
+  CHECK(none.ate.translation_m.rmse == Approx(0.5).epsilon(1e-12));
+  CHECK(none.ate.translation_m.mean == Approx(0.5).epsilon(1e-12));
+  CHECK(none.ate.translation_m.median == Approx(0.5).epsilon(1e-12));
+  CHECK(none.ate.translation_m.max == Approx(0.5).epsilon(1e-12));
+  CHECK(none.ate.rotation_deg.max < 1e-6);
+  // Relative poses do not see a constant world offset.
+  for (const auto& e : none.rpe) CHECK(e.translation_m.max < 1e-9);
+  // Any alignment removes it.
+  CHECK(EvaluateTrajectory(gt, est, Options(AlignmentType::kPosYaw)).ate.translation_m.rmse <
+        1e-9);
+}
+
+TEST_CASE("ATE of white position noise is sigma * sqrt(3)", "[eval]") {
+  const Trajectory gt = MakeLoop(4000);
+  Trajectory est = gt;
+  std::mt19937 rng(42);
+  std::normal_distribution<double> noise(0.0, 0.02);
+  for (auto& T : est.T_W_B) {
+    T = Transformation(T.rotation(),
+                       T.translation() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+  }
+  const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kSe3));
+  // E|n|^2 = 3 sigma^2; 12000 samples -> relative standard error of the RMSE ~0.5 %.
+  CHECK(r.ate.translation_m.rmse == Approx(0.02 * std::sqrt(3.0)).epsilon(0.02));
+  CHECK(r.ate.rotation_deg.rmse < 0.05);  // the fit's rotation error is tiny, not zero
+}
+
+TEST_CASE("RPE of constant-rate drift along a straight line", "[eval]") {
+  // 201 poses 0.5 m apart along x (exact in binary: path lengths are exact).
+  Trajectory gt;
+  for (int i = 0; i <= 200; ++i) {
+    gt.Add(int64_t{i} * 100000000, Transformation(Eigen::Quaterniond::Identity(),
+                                                   Eigen::Vector3d(0.5 * i, 0.0, 0.0)));
+  }
+  EvalOptions options = Options(AlignmentType::kNone);
+  options.segment_lengths_m = {10.0, 50.0, 150.0};
+
+  SECTION("scale drift: 2 % of distance") {
+    Trajectory est = gt;
+    for (auto& T : est.T_W_B) T = Transformation(T.rotation(), 1.02 * T.translation());
+    const EvalResult r = EvaluateTrajectory(gt, est, options);
+    REQUIRE(r.rpe.size() == 3);
+    CHECK(r.gt_path_length_m == 100.0);
+    CHECK(r.rpe[0].length_m == 10.0);
+    CHECK(r.rpe[0].pairs == 181);  // starts 0..180 reach +20 steps
+    CHECK(r.rpe[0].translation_m.rmse == Approx(0.2).epsilon(1e-9));
+    CHECK(r.rpe[0].translation_percent.mean == Approx(2.0).epsilon(1e-9));
+    CHECK(r.rpe[0].translation_percent.median == Approx(2.0).epsilon(1e-9));
+    CHECK(r.rpe[0].rotation_deg.max < 1e-9);
+    CHECK(r.rpe[1].pairs == 101);
+    CHECK(r.rpe[1].translation_m.rmse == Approx(1.0).epsilon(1e-9));
+    CHECK(r.rpe[1].translation_percent.rmse == Approx(2.0).epsilon(1e-9));
+    // Longer than the 100 m path: no pairs, all zeros.
+    CHECK(r.rpe[2].length_m == 150.0);
+    CHECK(r.rpe[2].pairs == 0);
+    CHECK(r.rpe[2].translation_m.rmse == 0.0);
+  }
+  SECTION("heading drift: 0.1 deg per metre") {
+    const double rate = 0.1 * kDeg;  // [rad/m]
+    Trajectory est = gt;
+    for (auto& T : est.T_W_B) T = Transformation(Rz(rate * T.translation().x()), T.translation());
+    const EvalResult r = EvaluateTrajectory(gt, est, options);
+    // (R_gt_i^T R_gt_j)^T (R_est_i^T R_est_j) = Rz(rate d): 1 deg over 10 m, 5 deg over 50 m.
+    CHECK(r.rpe[0].rotation_deg.rmse == Approx(1.0).epsilon(1e-9));
+    CHECK(r.rpe[0].rotation_deg.min == Approx(1.0).epsilon(1e-9));
+    CHECK(r.rpe[1].rotation_deg.rmse == Approx(5.0).epsilon(1e-9));
+  }
+}
+
+TEST_CASE("too few matches is an input error that says why", "[eval]") {
+  const Trajectory gt = MakeLoop(20);
+  Trajectory est = MakeLoop(20);
+  for (auto& t : est.t_ns) t += 5000000000;  // another clock: no stamp within 10 ms
+  CHECK_THROWS_AS(EvaluateTrajectory(gt, est, EvalOptions{}), InputError);
+  CHECK_THROWS_WITH(EvaluateTrajectory(gt, est, EvalOptions{}),
+                    "expected at least 2 matched poses for alignment 'posyaw', got 0 of 20 "
+                    "estimate poses (max_dt 0.01 s; do the two files use the same clock?)");
+  CHECK_THROWS_AS(AlignUmeyama({Eigen::Vector3d::Zero()}, {Eigen::Vector3d::Zero()}, false),
+                  std::invalid_argument);
+  EvalOptions bad;
+  bad.segment_lengths_m = {10.0, -1.0};
+  CHECK_THROWS_AS(EvaluateTrajectory(gt, gt, bad), std::invalid_argument);
+}
+
+TEST_CASE("EuRoC V1_01 re-estimated ground truth vs the original (TUM)", "[eval]") {
+  const std::string dir = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
+  std::ifstream probe(dir + "/V1_01_easy_gt_original_tum.txt");
+  if (!probe) {
+    WARN("shared data not found at " << dir << ", skipping");
+    return;
+  }
+  const Trajectory gt = ReadTrajectoryFile(dir + "/mav0/state_groundtruth_estimate0/data.csv");
+  const Trajectory est = ReadTrajectoryFile(dir + "/V1_01_easy_gt_original_tum.txt");
+  const EvalResult r = EvaluateTrajectory(gt, est, EvalOptions{});
+  // The same motion, two estimates of it: nearly every 20 Hz gt pose finds a 200 Hz partner.
+  CHECK(r.association.size() > 2800);
+  CHECK(r.gt_path_length_m > 50.0);
+  CHECK(r.ate.translation_m.rmse < 0.05);  // measured ~1-2 cm, see docs/evaluation.md
+  CHECK(r.rpe.size() == 5);
+  CHECK(r.rpe[0].pairs > 0);
+}
+
+}  // namespace vilma
