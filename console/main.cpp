@@ -10,6 +10,7 @@
 
 #include "vilma/console/command.h"
 #include "vilma/console/eval_command.h"
+#include "vilma/console/rig_command.h"
 
 namespace {
 
@@ -24,6 +25,8 @@ struct Subcommand {
 const Subcommand kSubcommands[] = {
     {"eval", "trajectory error (ATE, RPE) of an estimate against ground truth",
      &vilma::console::RunEvalCommand},
+    {"rig", "sensor rig files: import EuRoC/Kalibr calibrations, check a rig YAML",
+     &vilma::console::RunRigCommand},
 };
 
 void PrintUsage(std::ostream& out) {

@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iomanip>
 #include <sstream>
@@ -83,10 +85,15 @@ Camera ReadCameraModel(const YamlNode& node, const std::string& model_key) {
   return camera;
 }
 
+// Shortest of %.15g .. %.17g that reads back to exactly x (so files stay readable and a
+// save/load round trip is lossless).
 std::string FormatDouble(double x) {
-  std::ostringstream s;
-  s << std::setprecision(17) << x;
-  return s.str();
+  char buffer[40];
+  for (int precision = 15; precision <= 17; ++precision) {
+    std::snprintf(buffer, sizeof(buffer), "%.*g", precision, x);
+    if (std::strtod(buffer, nullptr) == x) break;
+  }
+  return buffer;
 }
 
 std::string FormatVector(const Eigen::VectorXd& v) {
