@@ -31,9 +31,9 @@ if [ ${#missing[@]} -gt 0 ]; then
   fi
 fi
 
-# LCM's UDP multicast needs a multicast route on the loopback device for ttl=0 traffic when
-# the machine has no other multicast route (containers, CI). See docs/lcm.md.
-if [ -x "$repo/scripts/setup-lcm-loopback.sh" ]; then
+# LCM's UDP multicast (ttl=0) needs some route for 239.255.76.67; where there is none (a
+# container or robot without network), route it through the loopback device. See docs/lcm.md.
+if ! ip route get 239.255.76.67 > /dev/null 2>&1; then
   "$repo/scripts/setup-lcm-loopback.sh"
 fi
 

@@ -1,0 +1,256 @@
+#include "vilma/console/eval_command.h"
+
+#include <catch2/catch.hpp>
+
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace vilma::console {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Generated files live outside the repository (preamble: /work/cache); per-process folder so
+// that parallel ctest runs do not collide.
+std::string TestDir() {
+  const char* base = std::getenv("VILMA_TEST_TMPDIR");
+  std::string dir = base != nullptr ? base : "/tmp";
+  dir += "/vilma_eval_command_test_" + std::to_string(::getpid());
+  ::mkdir(dir.c_str(), 0755);
+  return dir;
+}
+
+// Ground truth: a horizontal figure-eight, 60 s at 20 Hz with heading along the path, ~70 m.
+Trajectory MakeGroundTruth() {
+  Trajectory t;
+  for (int i = 0; i < 1200; ++i) {
+    const double s = 0.05 * i;
+    const double w = 2.0 * kPi / 30.0;
+    const Eigen::Vector3d p(6.0 * std::sin(w * s), 3.0 * std::sin(2.0 * w * s), 1.5);
+    const Eigen::Vector3d v(6.0 * w * std::cos(w * s), 6.0 * w * std::cos(2.0 * w * s), 0.0);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(std::atan2(v.y(), v.x()),
+                                                 Eigen::Vector3d::UnitZ()));
+    t.Add(1403715273262142976 + int64_t{i} * 50000000, Transformation(q, p));
+  }
+  return t;
+}
+
+// Estimate: the gt in a world rotated by 30 deg yaw and shifted, a deterministic 5 cm wobble in
+// x, stamps 1 ms late (within --max-dt).
+Trajectory MakeEstimate(const Trajectory& gt) {
+  Trajectory est;
+  const Transformation T_E_G(
+      Eigen::Quaterniond(Eigen::AngleAxisd(kPi / 6.0, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d(10.0, -3.0, 0.5));
+  for (std::size_t i = 0; i < gt.size(); ++i) {
+    Transformation T = gt.T_W_B[i];
+    // +-5 cm alternating along gt x: mean zero, so no alignment can remove it.
+    const double wobble = (i % 2 == 0 ? 0.05 : -0.05);
+    T = Transformation(T.rotation(), T.translation() + Eigen::Vector3d(wobble, 0.0, 0.0));
+    est.Add(gt.t_ns[i] + 1000000, T_E_G * T);
+  }
+  return est;
+}
+
+// Removes its folder when done, so repeated runs leave nothing behind.
+struct Files {
+  std::string dir, gt, est;
+  Files() = default;
+  Files(const Files&) = delete;
+  Files& operator=(const Files&) = delete;
+  ~Files() {
+    std::error_code ignored;
+    if (!dir.empty()) std::filesystem::remove_all(dir, ignored);
+  }
+};
+
+void WriteInputs(Files& f) {
+  f.dir = TestDir();
+  f.gt = f.dir + "/gt.csv";
+  f.est = f.dir + "/est.txt";
+  const Trajectory gt = MakeGroundTruth();
+  WriteTrajectoryFile(f.gt, gt, TrajectoryFormat::kEuroc);
+  WriteTrajectoryFile(f.est, MakeEstimate(gt), TrajectoryFormat::kTum);
+}
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// Output and exit status of a shell command.
+int Run(const std::string& command, std::string* output) {
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (pipe == nullptr) return -1;
+  char buf[4096];
+  std::size_t n = 0;
+  output->clear();
+  while ((n = std::fread(buf, 1, sizeof(buf), pipe)) > 0) output->append(buf, n);
+  const int status = ::pclose(pipe);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+struct Result {
+  int code;
+  std::string out, err;
+};
+
+Result Eval(const std::vector<std::string>& args) {
+  std::ostringstream out, err;
+  const int code = RunEvalCommand(args, out, err);
+  return {code, out.str(), err.str()};
+}
+
+}  // namespace
+
+TEST_CASE("eval argument parsing", "[eval]") {
+  const EvalCommandOptions d = ParseEvalArgs({"--gt", "a.csv", "--est", "b.txt"});
+  CHECK(d.gt_path == "a.csv");
+  CHECK(d.est_path == "b.txt");
+  CHECK(d.eval.alignment == AlignmentType::kPosYaw);
+  CHECK(d.eval.segment_lengths_m == std::vector<double>{10, 20, 30, 40, 50});
+  CHECK(d.eval.association.max_dt_s == 0.01);
+  CHECK(d.json_path.empty());
+  CHECK(d.plot_path.empty());
+
+  const EvalCommandOptions o =
+      ParseEvalArgs({"--gt=a", "--est", "b", "--align", "sim3", "--segments", "1,2.5",
+                     "--max-dt=0.02", "--json", "o.json", "--plot", "o.png"});
+  CHECK(o.eval.alignment == AlignmentType::kSim3);
+  CHECK(o.eval.segment_lengths_m == std::vector<double>{1.0, 2.5});
+  CHECK(o.eval.association.max_dt_s == 0.02);
+  CHECK(o.json_path == "o.json");
+  CHECK(o.plot_path == "o.png");
+  CHECK(ParseEvalArgs({"--help"}).help);
+
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--frobnicate"}),
+                    "unknown option '--frobnicate'");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est"}), "--est: expected a value");
+  CHECK_THROWS_WITH(ParseEvalArgs({"a.csv", "b.txt"}),
+                    "unexpected argument 'a.csv' (files go after --gt and --est)");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--align", "affine"}),
+                    "--align: expected posyaw, se3, sim3 or none, got 'affine'");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--segments", "10,x"}),
+                    "--segments: expected a number, got 'x'");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--segments", "10,0"}),
+                    "--segments: expected lengths > 0 [m], got 10,0");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--est", "b"}),
+                    "--gt: expected a ground-truth trajectory file");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--max-dt", "-1"}),
+                    "association.max_dt_s: expected a finite time difference >= 0 [s]");
+}
+
+TEST_CASE("eval exit codes and messages name the file", "[eval]") {
+  Files f;
+  WriteInputs(f);
+  const Result usage = Eval({"--gt", f.gt});
+  CHECK(usage.code == kExitUsage);
+  CHECK(usage.err.find("--est: expected an estimated trajectory file") != std::string::npos);
+
+  const Result missing = Eval({"--gt", f.gt, "--est", f.dir + "/nope.txt"});
+  CHECK(missing.code == kExitInputError);
+  CHECK(missing.err == "vilma eval: error: " + f.dir +
+                           "/nope.txt: expected a readable trajectory file\n");
+
+  const std::string bad = f.dir + "/bad.txt";
+  std::ofstream(bad) << "# t x y z qx qy qz qw\n0 0 0 0 0 0 0 1\n1 0 0 0 0 0 1\n";
+  const Result malformed = Eval({"--gt", f.gt, "--est", bad});
+  CHECK(malformed.code == kExitInputError);
+  CHECK(malformed.err == "vilma eval: error: " + bad +
+                             ": line 3: expected 8 whitespace-separated columns (TUM: t x y z "
+                             "qx qy qz qw), got 7\n");
+
+  const Result help = Eval({"--help"});
+  CHECK(help.code == kExitOk);
+  CHECK(help.out.find("usage: vilma eval --gt GT --est EST") != std::string::npos);
+}
+
+TEST_CASE("eval end to end with --json parse-back", "[eval]") {
+  Files f;
+  WriteInputs(f);
+  const std::string json = f.dir + "/out.json";
+  const Result r = Eval({"--gt", f.gt, "--est", f.est, "--json", json, "--segments", "5,10,500"});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  CHECK(r.out.find("matched poses: 1200") != std::string::npos);
+  CHECK(r.out.find("alignment:     posyaw") != std::string::npos);
+  CHECK(r.out.find("(path shorter than the segment)") != std::string::npos);  // 500 m
+
+  // The wobble is +-5 cm along x of G, mean zero: after posyaw alignment every error is ~5 cm.
+  const std::string text = Slurp(json);
+  REQUIRE_FALSE(text.empty());
+  std::string parsed;
+  const std::string script =
+      "import json,sys; d=json.load(open(sys.argv[1])); "
+      "print(d['schema_version'], d['matched_poses'], d['alignment'], d['scale'], "
+      "'%.4f' % d['ate']['translation_rmse_m'], '%.4f' % d['ate']['rotation_rmse_deg'], "
+      "len(d['rpe']), d['rpe'][0]['length_m'], d['rpe'][2]['pairs'], "
+      "d['rpe'][0]['pairs'] > 0, 'translation_mean_percent' in d['rpe'][0], "
+      "'rotation_rmse_deg' in d['rpe'][0], 'translation_rmse_m' in d['rpe'][0])";
+  const int code = Run("python3 -c \"" + script + "\" " + json + " 2>&1", &parsed);
+  if (code != 0 && parsed.find("not found") != std::string::npos) {
+    WARN("python3 not available, JSON checked by text only");
+    CHECK(text.find("\"translation_rmse_m\"") != std::string::npos);
+  } else {
+    INFO(text);
+    CHECK(code == 0);
+    CHECK(parsed == "1 1200 posyaw 1 0.0500 0.0000 3 5 0 True True True True\n");
+  }
+}
+
+TEST_CASE("eval --plot writes a PNG", "[eval]") {
+  std::string ignored;
+  const bool have_matplotlib =
+      Run("python3 -c 'import matplotlib' 2>/dev/null", &ignored) == 0 ||
+      Run("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null", &ignored) == 0;
+  if (!have_matplotlib) {
+    WARN("python3 matplotlib not importable: skipping the --plot test");
+    return;
+  }
+  Files f;
+  WriteInputs(f);
+  const std::string png = f.dir + "/plot.png";
+  std::remove(png.c_str());
+  const Result r = Eval({"--gt", f.gt, "--est", f.est, "--plot", png});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  const std::string bytes = Slurp(png);
+  REQUIRE(bytes.size() > 1000);
+  CHECK(bytes.substr(0, 8) == std::string("\x89PNG\r\n\x1a\n", 8));
+}
+
+TEST_CASE("the vilma binary dispatches eval", "[eval]") {
+  const std::string binary = std::string(VILMA_BINARY_DIR) + "/bin/vilma";
+  if (::access(binary.c_str(), X_OK) != 0) {
+    WARN("no binary at " << binary << " (build target vilma): skipping");
+    return;
+  }
+  std::string out;
+  CHECK(Run(binary + " --help", &out) == 0);
+  CHECK(out.find("eval") != std::string::npos);
+  CHECK(Run(binary + " 2>&1", &out) == kExitUsage);
+  CHECK(Run(binary + " frobnicate 2>&1", &out) == kExitUsage);
+  CHECK(out.find("unknown subcommand 'frobnicate'") != std::string::npos);
+  CHECK(Run(binary + " eval --bogus 2>&1", &out) == kExitUsage);
+  CHECK(Run(binary + " eval --gt /nonexistent/gt.txt --est /nonexistent/est.txt 2>&1", &out) ==
+        kExitInputError);
+  CHECK(out.find("/nonexistent/gt.txt") != std::string::npos);
+
+  Files f;
+  WriteInputs(f);
+  CHECK(Run(binary + " eval --gt " + f.gt + " --est " + f.est + " --align se3", &out) == 0);
+  CHECK(out.find("ATE translation [m]") != std::string::npos);
+}
+
+}  // namespace vilma::console
