@@ -34,6 +34,9 @@ Options:
   --idle-timeout S      stop S seconds after the last message (default 0 = never)
   --quiet               no per-second lines, only the final table
   --help                this text
+
+Exit status: 0 on success, 1 when LCM cannot be opened, 2 on bad options, 4 when
+--expect-count messages did not arrive.
 )";
 
 struct Options {
@@ -121,14 +124,14 @@ int main(int argc, char** argv) {
   }
   if (!error.empty()) {
     std::cerr << "vilma-lcm-rates: " << error << "\n(see vilma-lcm-rates --help)\n";
-    return 1;
+    return 2;
   }
   std::string url = vilma::ResolveLcmUrl(options.lcm_url);
   if (options.recv_buf_size > 0) url = vilma::WithDefaultRecvBufSize(url, options.recv_buf_size);
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     std::cerr << "vilma-lcm-rates: cannot open LCM URL " << url << "\n";
-    return 2;
+    return 1;
   }
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);

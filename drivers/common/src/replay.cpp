@@ -87,7 +87,8 @@ Options:
   --quiet             print errors only
   --help              this text
 
-Exit status: 0 on success, 1 on bad options, 2 on a bad dataset or output.
+Exit status: 0 on success, 1 on a bad dataset or output, 2 on bad options, 3 when some
+messages could not be sent.
 )";
 }
 
@@ -493,7 +494,7 @@ int ReplayMain(int argc, const char* const* argv, const std::atomic<bool>* stop)
   }
   if (!error.empty()) {
     std::cerr << "vilma-replay: " << error << "\n(see vilma-replay --help)\n";
-    return 1;
+    return 2;
   }
   try {
     const AslDataset dataset = AslDataset::Open(options.dataset);
@@ -504,7 +505,7 @@ int ReplayMain(int argc, const char* const* argv, const std::atomic<bool>* stop)
     }
     if (dataset.cameras().empty() && dataset.imu().empty()) {
       std::cerr << "vilma-replay: " << options.dataset << ": no camera or IMU data\n";
-      return 2;
+      return 1;
     }
     ReplaySummary summary;
     if (!options.to_log.empty()) {
@@ -526,7 +527,7 @@ int ReplayMain(int argc, const char* const* argv, const std::atomic<bool>* stop)
     return summary.send_failures > 0 ? 3 : 0;
   } catch (const std::exception& e) {
     std::cerr << "vilma-replay: error: " << e.what() << "\n";
-    return 2;
+    return 1;
   }
 }
 
