@@ -243,7 +243,9 @@ TEST_CASE("vilma-replay command line", "[replay]") {
   CHECK_FALSE(parse({"data", "--channels", "IMU"}).empty());  // clashes with the IMU channel
 
   const char* bad[] = {"vilma-replay", "/nonexistent/dataset"};
-  CHECK(ReplayMain(2, bad, nullptr) == 2);
+  CHECK(ReplayMain(2, bad, nullptr) == 1);  // input error
+  const char* bad_option[] = {"vilma-replay", "/nonexistent/dataset", "--bogus"};
+  CHECK(ReplayMain(3, bad_option, nullptr) == 2);  // usage error
 }
 
 }  // namespace
