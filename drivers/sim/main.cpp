@@ -6,12 +6,16 @@
 
 #include "vilma/core/error.h"
 #include "vilma/sim/simulator.h"
+#ifdef VILMA_SIM_LIVE
+#include "live.h"
+#endif
 
 namespace {
 
 void PrintHelp() {
   std::cout <<
       R"(Usage: vilma-sim PRESET|WORLD.yaml --out DIR [options]
+       vilma-sim PRESET|WORLD.yaml --live [--lcm-url URL] [--channel-suffix S] [--rate R] [options]
 
 Renders a synthetic visual-inertial sequence (EuRoC VI-sensor rig: 752x480 cameras at 20 Hz,
 ADIS16448-like IMU at 200 Hz) and writes it as an ASL/EuRoC dataset folder with ground truth:
@@ -32,8 +36,12 @@ Options:
   --exposure S         exposure time for motion blur in seconds (default 0.004)
   --pixel-noise S      Gaussian pixel noise sigma in grey levels (default 2)
   --no-imu-noise       exact IMU (no white noise, no bias random walk, zero biases)
+  --live               publish on LCM in real time instead of writing files: GRAY8
+                       vilma.image_t on CAM0 (CAM1), vilma.imu_t on IMU
+  --lcm-url URL        LCM provider (default $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)
+  --channel-suffix S   appended to the channel names (e.g. _SIM)
+  --rate R             playback speed factor for --live (default 1 = real time)
   --help               this text
-(--live publishing on LCM is not available in this build.)
 )";
 }
 
@@ -54,6 +62,9 @@ int main(int argc, char** argv) {
   vilma::sim::SimOptions options;
   std::string out_dir;
   std::string world;
+  bool live = false;
+  std::string lcm_url, channel_suffix;
+  double rate = 1.0;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&](const char* name) -> std::string {
@@ -106,9 +117,16 @@ int main(int argc, char** argv) {
       options.noise_sigma = d;
     } else if (arg == "--no-imu-noise") {
       options.imu = vilma::sim::ImuSimOptions::NoiseFree();
-    } else if (arg == "--live" || arg == "--lcm-url") {
-      std::cerr << "vilma-sim: " << arg << " is not available yet (dataset output only)\n";
-      return 2;
+    } else if (arg == "--live") {
+      live = true;
+    } else if (arg == "--lcm-url") {
+      lcm_url = value("--lcm-url");
+    } else if (arg == "--channel-suffix") {
+      channel_suffix = value("--channel-suffix");
+    } else if (arg == "--rate") {
+      const std::string v = value("--rate");
+      if (!ParseDouble(v, &d)) bad(arg, v, "a speed factor");
+      rate = d;
     } else if (!arg.empty() && arg[0] == '-') {
       std::cerr << "vilma-sim: unknown option '" << arg << "' (see --help)\n";
       return 2;
@@ -119,20 +137,39 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (world.empty() || out_dir.empty()) {
-    std::cerr << "vilma-sim: need a PRESET or WORLD.yaml and --out DIR (see --help)\n";
+  if (world.empty() || (out_dir.empty() && !live)) {
+    std::cerr << "vilma-sim: need a PRESET or WORLD.yaml and --out DIR or --live (see --help)\n";
+    return 2;
+  }
+#ifndef VILMA_SIM_LIVE
+  if (live) {
+    std::cerr << "vilma-sim: --live is not available in this build (no vilma_lcm_io)\n";
+    return 2;
+  }
+#endif
+  if (!live && (!lcm_url.empty() || !channel_suffix.empty())) {
+    std::cerr << "vilma-sim: --lcm-url and --channel-suffix need --live\n";
     return 2;
   }
   options.world = world;
   try {
     std::cerr << "vilma-sim: world " << world << ", session " << options.session << ", seed "
               << options.seed << ", " << options.seconds << " s" << (options.stereo ? ", stereo" : "")
-              << " -> " << out_dir << "\n";
+              << " -> " << (live ? "LCM" : out_dir) << "\n";
     vilma::sim::Simulator sim(options);
     const auto& r = sim.trajectory_report();
     std::cerr << "trajectory: mean speed " << r.mean_speed << " m/s, max speed " << r.max_speed
               << " m/s, max rate " << r.max_angular_rate << " rad/s, min view depth "
               << r.min_view_depth << " m, clearance violations " << r.collision_samples << "\n";
+#ifdef VILMA_SIM_LIVE
+    if (live) {
+      vilma::sim::LiveOptions lo;
+      lo.lcm_url = lcm_url;
+      lo.channel_suffix = channel_suffix;
+      lo.rate = rate;
+      return vilma::sim::PublishLive(&sim, lo, std::cerr);
+    }
+#endif
     const vilma::sim::DatasetSummary s = sim.WriteDataset(out_dir, &std::cerr);
     std::cerr << "wrote " << s.num_images << " images, " << s.num_imu_samples
               << " IMU samples in " << s.total_seconds << " s; rendering " << s.frames_per_second()

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <fstream>
 #include <iomanip>
 #include <ostream>
 #include <sstream>
@@ -74,6 +75,11 @@ SensorRig MakeEurocRig(bool stereo, const ImuNoise& noise) {
 Simulator::Simulator(const SimOptions& options) : options_(options) {
   const std::string error = options.Validate();
   if (!error.empty()) throw InputError(FormatInputError("simulator options", "", error));
+  if (!IsPresetName(options.world) && !std::ifstream(options.world).good()) {
+    throw InputError(FormatInputError(options.world, "world",
+                                      "expected a preset (room, room-fast, hall, street) or a readable "
+                                      "world YAML file"));
+  }
   world_ = IsPresetName(options.world) ? MakePresetWorld(options.world, options.seed)
                                        : LoadWorldYaml(options.world, options.seed);
   world_.GenerateTextures();

@@ -227,7 +227,7 @@ Trajectory GenerateOnce(const World& world, const TrajectoryOptions& options, ui
     if (route_mode) {
       route_s += direction * step;
       double heading;
-      lateral = std::clamp(0.7 * lateral + rng.Normal(0.0, 0.6), -2.5, 2.5);
+      lateral = std::clamp(0.8 * lateral + rng.Normal(0.0, 0.3), -2.5, 2.5);
       Vector3d on_route = RoutePoint(m.route_W, route_s, &heading);
       if (direction < 0) heading += M_PI;
       const Vector3d left(-std::sin(heading), std::cos(heading), 0.0);

@@ -289,7 +289,7 @@ World MakeStreet(uint64_t seed) {
   w.motion.route_W = {Vector3d(-24, -15, z), Vector3d(24, -15, z), Vector3d(24, 15, z),
                       Vector3d(-24, 15, z)};
   w.motion.free_space = Eigen::AlignedBox3d(Vector3d(-29, -20, 0.8), Vector3d(29, 20, 3.0));
-  w.motion.mean_speed = 1.5;
+  w.motion.mean_speed = 1.3;
   w.motion.max_yaw_rate = 0.6;
   w.motion.roll_pitch_amplitude = 0.08;
   w.motion.mean_pitch = 0.05;

@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# Makes vilma's fixed, seeded synthetic benchmark datasets with vilma-sim (docs/simulator.md).
+#
+#   scripts/make-datasets.sh [--out DIR] [--only NAME[,NAME...]] [--mono] [--list] [--force]
+#
+# Default folder: ${VILMA_CACHE:-$HOME/.cache/vilma}/datasets (never the repository). Each set
+# is an ASL/EuRoC folder DIR/NAME/ (mav0/..., rig.yaml, sim.yaml). Sets that already exist with
+# the same parameters are skipped (the key is stored in NAME/.vilma-sim-key); a set is written
+# into NAME.partial/ and renamed when complete, so an interrupted run leaves nothing half-made.
+# The vilma-sim binary is looked up in $VILMA_SIM, $VILMA_BUILD_DIR/bin, /work/build-sim/bin,
+# <repo>/build/bin, then PATH.
+set -euo pipefail
+
+# name        preset     seed session seconds
+SETS=(
+  "room-easy  room       1    0       90"
+  "room-fast  room-fast  1    0       60"
+  "hall       hall       1    0       120"
+  "street     street     1    0       120"
+  "room-s2    room       1    1       60"
+  "room-s3    room       1    2       60"
+  "hall-s2    hall       1    1       60"
+  "hall-s3    hall       1    2       60"
+)
+# Bump when the simulator's output changes, so that old caches are remade.
+SIM_VERSION=1
+
+repo_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+out_dir="${VILMA_CACHE:-$HOME/.cache/vilma}/datasets"
+only=""
+stereo="--stereo"
+force=0
+list=0
+
+usage() { sed -n '2,13p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --out) out_dir="$2"; shift 2 ;;
+    --only) only="$2"; shift 2 ;;
+    --mono) stereo=""; shift ;;
+    --force) force=1; shift ;;
+    --list) list=1; shift ;;
+    -h|--help) usage; exit 0 ;;
+    *) echo "make-datasets.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+
+if [[ $list -eq 1 ]]; then
+  printf '%s\n' "${SETS[@]}"
+  exit 0
+fi
+
+find_sim() {
+  local candidates=()
+  [[ -n "${VILMA_SIM:-}" ]] && candidates+=("$VILMA_SIM")
+  [[ -n "${VILMA_BUILD_DIR:-}" ]] && candidates+=("$VILMA_BUILD_DIR/bin/vilma-sim")
+  candidates+=("/work/build-sim/bin/vilma-sim" "$repo_dir/build/bin/vilma-sim")
+  for c in "${candidates[@]}"; do
+    if [[ -x "$c" ]]; then echo "$c"; return 0; fi
+  done
+  command -v vilma-sim || return 1
+}
+sim="$(find_sim)" || {
+  echo "make-datasets.sh: vilma-sim not found; build it (cmake --build BUILD --target vilma-sim)" \
+       "or set VILMA_SIM / VILMA_BUILD_DIR" >&2
+  exit 1
+}
+
+mkdir -p "$out_dir"
+echo "datasets: $out_dir (vilma-sim: $sim)"
+for line in "${SETS[@]}"; do
+  read -r name preset seed session seconds <<<"$line"
+  if [[ -n "$only" && ",$only," != *",$name,"* ]]; then continue; fi
+  key="version=$SIM_VERSION preset=$preset seed=$seed session=$session seconds=$seconds stereo=${stereo:+1}"
+  dir="$out_dir/$name"
+  if [[ $force -eq 0 && -f "$dir/.vilma-sim-key" && "$(cat "$dir/.vilma-sim-key")" == "$key" \
+        && -f "$dir/mav0/imu0/data.csv" ]]; then
+    echo "$name: up to date ($key)"
+    continue
+  fi
+  echo "$name: making ($key)"
+  rm -rf "$dir.partial"
+  "$sim" "$preset" --out "$dir.partial" --seed "$seed" --session "$session" \
+         --seconds "$seconds" $stereo
+  echo "$key" > "$dir.partial/.vilma-sim-key"
+  rm -rf "$dir"
+  mv "$dir.partial" "$dir"
+  echo "$name: $(du -sh "$dir" | cut -f1)"
+done
