@@ -24,16 +24,16 @@ mkdir -p "$cache"
 # per-channel rates; it stops 3 s after the last message and reports losses (seq gaps).
 replay_and_watch() {
   local dataset="$1" seconds="$2"
-  "$bin/vilma-lcm-rates" --lcm-url "$url" --idle-timeout 3 --duration $((seconds + 30)) &
+  "$bin/vilma-lcm-rates" --lcm-url "$url" --idle-timeout 3 --duration 120 --quiet &
   local monitor=$!
   sleep 0.5
-  "$bin/vilma-replay" "$dataset" --end "$seconds" --lcm-url "$url"
+  "$bin/vilma-replay" "$dataset" --end "$seconds" --lcm-url "$url" --quiet
   wait "$monitor"
 }
 
 if [ -d "$euroc/mav0" ]; then
   step "replay: the bundled EuRoC V1_01 slice (stereo 752x480 @ 20 Hz + IMU @ 200 Hz) over LCM"
-  "$bin/vilma" rig check "$repo/config/euroc-rig.yaml" | grep '^#'
+  "$bin/vilma" rig check "$repo/config/euroc-rig.yaml" | grep -E '^# (imu|camera|baseline)'
   replay_and_watch "$euroc" 4.75
 else
   echo "demo: $euroc not found (the bundled EuRoC slice); skipping its replay"
@@ -45,7 +45,7 @@ if [ ! -f "$sim/mav0/state_groundtruth_estimate0/data.csv" ]; then
   rm -rf "$sim"
   "$bin/vilma-sim" room --out "$sim" --seconds 30 --seed 7 --stereo
 fi
-"$bin/vilma" rig check "$sim/rig.yaml" | grep '^#'
+"$bin/vilma" rig check "$sim/rig.yaml" | grep -E '^# (imu|camera|baseline)'
 
 step "replay: the simulated session over LCM"
 replay_and_watch "$sim" 10
