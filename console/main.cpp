@@ -11,6 +11,7 @@
 #include "vilma/console/command.h"
 #include "vilma/console/eval_command.h"
 #include "vilma/console/rig_command.h"
+#include "vilma/console/vio_command.h"
 
 namespace {
 
@@ -27,6 +28,8 @@ const Subcommand kSubcommands[] = {
      &vilma::console::RunEvalCommand},
     {"rig", "sensor rig files: import EuRoC/Kalibr calibrations, check a rig YAML",
      &vilma::console::RunRigCommand},
+    {"vio", "visual-inertial odometry (ROVIO-style filter) over an ASL dataset folder",
+     &vilma::console::RunVioCommand},
 };
 
 void PrintUsage(std::ostream& out) {

@@ -1,0 +1,36 @@
+// `vilma vio`: runs the visual-inertial odometry filter (estimator/vio_filter.h) offline over
+// an ASL dataset folder, single-threaded and deterministically.
+//
+//   vilma vio DATASET [--config FILE] [--rig RIG.yaml] [--camera INDEX] --out TRAJ.txt
+//             [--log-timing FILE]
+//
+// Rig: --rig, else DATASET/rig.yaml if present (the simulator writes one), else the EuRoC
+// sensor.yaml files of DATASET. Writes T_M_I of every frame as TUM text (t in seconds, IMU
+// clock) and prints a timing summary (ms per frame p50/p99, real-time factor).
+#pragma once
+
+#include <ostream>
+#include <string>
+#include <vector>
+
+#include "vilma/console/command.h"
+
+namespace vilma::console {
+
+struct VioCommandOptions {
+  std::string dataset;          // positional, required
+  std::string config_path;      // --config, empty: built-in defaults (= config/estimator.yaml)
+  std::string rig_path;         // --rig
+  int camera = 0;               // --camera
+  std::string out_path;         // --out, required
+  std::string timing_path;      // --log-timing, empty: none
+  bool print_config = false;    // --print-config: print the effective options
+  bool help = false;
+};
+
+// Throws UsageError.
+VioCommandOptions ParseVioArgs(const std::vector<std::string>& args);
+void PrintVioHelp(std::ostream& out);
+int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace vilma::console

@@ -1,0 +1,105 @@
+// Options of the ROVIO-style filter (docs/estimator.md). Plain structs with in-class defaults,
+// one comment per field, nested into FilterOptions, checked by Validate(). Loaded strictly
+// from YAML (config/estimator.yaml documents every key): unknown and missing keys are errors.
+// All sizes (feature count, patch size, pyramid levels) are runtime values.
+#pragma once
+
+#include <string>
+
+#include "vilma/core/yaml_io.h"
+#include "vilma/estimator/feature_detector.h"
+#include "vilma/estimator/multilevel_patch.h"
+
+namespace vilma::estimator {
+
+// Initialization from the first IMU samples (docs/estimator.md, "Initialization").
+struct InitOptions {
+  double window_s = 0.5;  // IMU averaging window before the first frame (half needed) [s]
+  // The start is static when the standard deviations of the 50 ms means of the accelerometer
+  // and gyroscope over the window are below these (block means ignore vibration).
+  double max_static_accel_std = 0.2;  // [m/s^2]
+  double max_static_gyro_std = 0.02;  // [rad/s]
+  // No initialization while | |mean accelerometer| - g | exceeds this: the mean would not
+  // give the gravity direction (strong acceleration, or corrupted samples before a reset).
+  double max_gravity_error = 1.0;  // [m/s^2]
+  double sigma_velocity_static = 0.02;  // initial velocity std, static start [m/s]
+  double sigma_velocity_moving = 1.0;   // initial velocity std, moving start [m/s]
+  double sigma_roll_pitch = 0.02;       // initial roll/pitch std [rad]
+  double sigma_yaw = 1e-3;              // yaw is unobservable; its std only conditions P [rad]
+  double sigma_gyro_bias = 0.01;        // [rad/s]
+  double sigma_accel_bias = 0.1;        // [m/s^2]
+  double sigma_extrinsic_rotation = 0.01;     // if estimated [rad]
+  double sigma_extrinsic_translation = 0.01;  // if estimated [m]
+  double sigma_time_offset = 0.005;           // if estimated [s]
+  std::string Validate() const;
+};
+
+// Process noise beyond the IMU densities of the rig (IMU noise comes from the rig YAML).
+struct ProcessNoiseOptions {
+  double bearing = 1e-3;          // feature bearing random walk [rad/sqrt(s)]
+  double inverse_depth = 1e-3;    // feature inverse-distance random walk [1/m/sqrt(s)]
+  double extrinsic_rotation = 1e-4;     // if estimated [rad/sqrt(s)]
+  double extrinsic_translation = 1e-4;  // if estimated [m/sqrt(s)]
+  double time_offset = 1e-5;            // if estimated [s/sqrt(s)]
+  double imu_noise_scale = 1.0;   // multiplies the rig's IMU densities (model mismatch)
+  std::string Validate() const;
+};
+
+// Photometric update (ROVIO IJRR 2017, sec. 5).
+struct UpdateOptions {
+  int max_iterations = 4;            // iterated EKF steps per feature
+  double convergence_px = 0.02;      // stop when the pixel moves less [px]
+  double intensity_sigma = 6.0;      // photometric noise per patch sample [grey levels]
+  double pixel_sigma = 0.5;          // extra pixel noise (model errors) [px]
+  double huber_threshold = 15.0;     // Huber weighting of samples above this |r| [grey levels]
+  double mahalanobis_threshold = 13.8;  // chi^2 gate (2 DoF, 99.9%) on the aligned pixel
+  double max_mean_abs_error = 30.0;  // patch is an outlier above this mean |r| [grey levels]
+  int align_iterations = 10;         // patch alignment (outlier check) Gauss-Newton steps
+  std::string Validate() const;
+};
+
+// Feature management.
+struct FeatureOptions {
+  int max_features = 25;             // features in the state (preallocated) [count]
+  double init_inverse_depth = 0.5;   // new features start at 1/rho = 2 m [1/m]
+  double init_inverse_depth_sigma = 0.5;  // std of that guess [1/m]
+  double init_bearing_sigma_px = 1.0;     // std of a new feature's pixel [px]
+  int max_failures = 3;              // drop after this many consecutive failed updates
+  double min_shi_tomasi = 20.0;      // drop / don't add patches weaker than this
+  int detect_below = 20;             // look for new features when fewer are tracked [count]
+  double min_inverse_depth = 0.0;    // features behind this are dropped [1/m]
+  PatchOptions patch;
+  FeatureDetectorOptions detector;
+  PhotometricOptions photometric;
+  std::string Validate() const;
+};
+
+// Divergence detection: a failed check resets the filter (re-initialization).
+struct HealthOptions {
+  double max_speed = 30.0;             // |v| above this is implausible [m/s]
+  double max_position_sigma = 100.0;   // covariance blow-up [m]
+  int max_frames_without_features = 20;  // all features lost for this long [frames]
+  std::string Validate() const;
+};
+
+struct FilterOptions {
+  bool estimate_extrinsics = false;  // refine T_I_C online (else it is fixed from the rig)
+  bool estimate_time_offset = false;  // refine the camera-IMU time offset online
+  InitOptions init;
+  ProcessNoiseOptions noise;
+  UpdateOptions update;
+  FeatureOptions features;
+  HealthOptions health;
+  // Empty if valid, else "section.field: expectation".
+  std::string Validate() const;
+};
+
+// Strict loading: every key of config/estimator.yaml must be present, unknown keys are
+// errors, and the values must pass Validate(); throws InputError naming file, key, expectation.
+FilterOptions LoadFilterOptions(const std::string& path);
+FilterOptions ParseFilterOptions(const std::string& yaml_text, const std::string& source_name);
+FilterOptions ReadFilterOptions(const YamlNode& root);
+// The effective options as YAML (same layout as config/estimator.yaml), printed at start.
+std::string FilterOptionsToYaml(const FilterOptions& options);
+
+}  // namespace vilma::estimator

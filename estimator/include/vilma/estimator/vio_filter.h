@@ -1,0 +1,125 @@
+// The ROVIO-style visual-inertial filter (Bloesch et al., IJRR 2017): robocentric features
+// with bearing + inverse distance in an iterated EKF, IMU propagation per sample, and one
+// iterated photometric update per feature and frame. docs/estimator.md has the equations.
+//
+// Single-threaded and deterministic: the same sequence of AddImu / AddImage calls gives
+// bit-identical states. Time: IMU clock in ns; an image stamped t_cam was taken at
+// t_imu = t_cam + time_offset_ns (rig).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "vilma/core/geometry.h"
+#include "vilma/core/imu.h"
+#include "vilma/core/rig.h"
+#include "vilma/estimator/filter_options.h"
+#include "vilma/estimator/filter_state.h"
+#include "vilma/estimator/image_pyramid.h"
+#include "vilma/estimator/multilevel_patch.h"
+#include "vilma/estimator/propagation.h"
+
+namespace vilma::estimator {
+
+// What happened on one frame.
+struct FrameResult {
+  bool pose_valid = false;      // the filter is initialized and the pose below is its estimate
+  int64_t t_ns = 0;             // IMU clock [ns]
+  Transformation T_M_I;
+  int num_features = 0;         // active after the frame
+  int num_updated = 0;          // features whose update was accepted
+  int num_rejected = 0;         // gated out / failed alignment
+  int num_added = 0;
+  bool initialized_now = false;
+  bool reset = false;           // a health check failed; the filter re-initializes
+  std::string reset_reason;
+};
+
+// Counters over the whole run (for the status channel and the runner's summary).
+struct FilterStats {
+  int64_t frames = 0;
+  int64_t imu_samples = 0;
+  int64_t imu_duplicates = 0;     // same or earlier time stamp as the previous: dropped
+  int64_t imu_gaps = 0;           // spacing above 5 nominal periods: integrated across
+  int64_t frames_without_imu = 0; // frames before enough IMU for initialization
+  int64_t resets = 0;
+  int64_t static_starts = 0;      // initializations classified static / moving
+  int64_t moving_starts = 0;
+  int64_t updates = 0;
+  int64_t rejections = 0;
+};
+
+class VioFilter {
+ public:
+  // Uses camera `camera_index` of the rig (monocular). Throws InputError if options or rig are
+  // invalid.
+  VioFilter(const SensorRig& rig, int camera_index, const FilterOptions& options);
+
+  // IMU samples in time order (duplicates and out-of-order samples are dropped and counted).
+  void AddImu(const ImuSample& sample);
+  // One 8-bit grayscale image stamped in the camera clock. Initializes on the first frame
+  // that has enough IMU data before it.
+  FrameResult AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8);
+
+  bool initialized() const { return initialized_; }
+  const FilterState& state() const { return x_; }
+  const Eigen::MatrixXd& covariance() const { return P_; }
+  const FilterStats& stats() const { return stats_; }
+  Transformation T_M_I() const { return Transformation(x_.q_W_I, x_.p_W_I); }
+
+ private:
+  struct Track {  // photometric bookkeeping of one slot
+    MultilevelPatch patch;
+    Eigen::Matrix2d A = Eigen::Matrix2d::Identity();  // d tangent(now) / d tangent(extraction)
+    Eigen::Matrix2d D = Eigen::Matrix2d::Identity();  // d tangent / d pixel at extraction
+    int failures = 0;
+    int age = 0;
+  };
+
+  bool Initialize(int64_t t_ns, std::string* why_not);
+  void Propagate(int64_t t_ns);
+  bool UpdateFeature(int slot);
+  void AddFeatures();
+  void RemoveFeature(int slot);
+  std::string CheckHealth() const;
+  Eigen::Matrix2d Warp(int slot, const Eigen::Matrix<double, 2, 3>& J_pixel_p_C) const;
+  // d mu / dt of a feature from the camera's current rates.
+  Eigen::Vector3d BearingRate(const FilterState& x, int slot) const;
+  // The feature's pixel at the image time (state time + td), d pixel / d p_C there and
+  // d pixel / d td. False if it does not project into the image.
+  bool PredictPixel(const FilterState& x, int slot, Eigen::Vector2d* pixel,
+                    Eigen::Matrix<double, 2, 3>* J_pixel_mu, Eigen::Vector2d* J_pixel_td) const;
+
+  SensorRig rig_;
+  CameraConfig camera_;
+  FilterOptions options_;
+  PropagationNoise noise_;
+
+  bool initialized_ = false;
+  FilterState x_;
+  Eigen::MatrixXd P_;
+  std::vector<Track> tracks_;
+  std::vector<ImuSample> imu_;  // samples not yet consumed (plus the last one before x_.t_ns)
+  FilterStats stats_;
+  int frames_without_updates_ = 0;
+  bool have_previous_reset_pose_ = false;
+  Transformation reset_pose_;
+
+  // Preallocated work (hot loops are allocation-free after the first frames).
+  ImagePyramid pyramid_;
+  PropagationJacobians jacobians_;
+  PropagationWorkspace workspace_;
+  FilterState x0_, x_iter_;
+  Eigen::VectorXd dx_;
+  Eigen::Matrix<double, Eigen::Dynamic, 2> PHt_, K_, KS_;
+  Eigen::Matrix<double, Eigen::Dynamic, 3> Pcols_;  // P columns of (dmu, dtd) of one feature
+  Eigen::Vector3d last_omega_m_ = Eigen::Vector3d::Zero();  // last gyro measurement [rad/s]
+  Eigen::VectorXd residual_;
+  Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel_;
+  std::vector<Eigen::Vector2d> occupied_;
+};
+
+}  // namespace vilma::estimator

@@ -1,0 +1,283 @@
+#include "vilma/estimator/filter_options.h"
+
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace vilma::estimator {
+namespace {
+
+std::string Positive(const char* field, double value) {
+  if (!(std::isfinite(value) && value > 0.0)) return std::string(field) + ": expected > 0";
+  return "";
+}
+std::string NonNegative(const char* field, double value) {
+  if (!(std::isfinite(value) && value >= 0.0)) return std::string(field) + ": expected >= 0";
+  return "";
+}
+std::string AtLeast(const char* field, int value, int minimum) {
+  if (value < minimum) return std::string(field) + ": expected >= " + std::to_string(minimum);
+  return "";
+}
+#define VILMA_RETURN_IF_ERROR(expr)     \
+  do {                                  \
+    const std::string _error = (expr);  \
+    if (!_error.empty()) return _error; \
+  } while (false)
+
+// One list of every option: the reader, the writer and the documentation stay in sync. `v` is
+// called as v(section, key, field&).
+template <typename Visitor, typename Options>
+void VisitOptions(Options& o, Visitor&& v) {
+  v("", "estimate_extrinsics", o.estimate_extrinsics);
+  v("", "estimate_time_offset", o.estimate_time_offset);
+  v("init", "window_s", o.init.window_s);
+  v("init", "max_static_accel_std", o.init.max_static_accel_std);
+  v("init", "max_static_gyro_std", o.init.max_static_gyro_std);
+  v("init", "max_gravity_error", o.init.max_gravity_error);
+  v("init", "sigma_velocity_static", o.init.sigma_velocity_static);
+  v("init", "sigma_velocity_moving", o.init.sigma_velocity_moving);
+  v("init", "sigma_roll_pitch", o.init.sigma_roll_pitch);
+  v("init", "sigma_yaw", o.init.sigma_yaw);
+  v("init", "sigma_gyro_bias", o.init.sigma_gyro_bias);
+  v("init", "sigma_accel_bias", o.init.sigma_accel_bias);
+  v("init", "sigma_extrinsic_rotation", o.init.sigma_extrinsic_rotation);
+  v("init", "sigma_extrinsic_translation", o.init.sigma_extrinsic_translation);
+  v("init", "sigma_time_offset", o.init.sigma_time_offset);
+  v("noise", "bearing", o.noise.bearing);
+  v("noise", "inverse_depth", o.noise.inverse_depth);
+  v("noise", "extrinsic_rotation", o.noise.extrinsic_rotation);
+  v("noise", "extrinsic_translation", o.noise.extrinsic_translation);
+  v("noise", "time_offset", o.noise.time_offset);
+  v("noise", "imu_noise_scale", o.noise.imu_noise_scale);
+  v("update", "max_iterations", o.update.max_iterations);
+  v("update", "convergence_px", o.update.convergence_px);
+  v("update", "intensity_sigma", o.update.intensity_sigma);
+  v("update", "pixel_sigma", o.update.pixel_sigma);
+  v("update", "huber_threshold", o.update.huber_threshold);
+  v("update", "mahalanobis_threshold", o.update.mahalanobis_threshold);
+  v("update", "max_mean_abs_error", o.update.max_mean_abs_error);
+  v("update", "align_iterations", o.update.align_iterations);
+  v("features", "max_features", o.features.max_features);
+  v("features", "init_inverse_depth", o.features.init_inverse_depth);
+  v("features", "init_inverse_depth_sigma", o.features.init_inverse_depth_sigma);
+  v("features", "init_bearing_sigma_px", o.features.init_bearing_sigma_px);
+  v("features", "max_failures", o.features.max_failures);
+  v("features", "min_shi_tomasi", o.features.min_shi_tomasi);
+  v("features", "detect_below", o.features.detect_below);
+  v("features", "min_inverse_depth", o.features.min_inverse_depth);
+  v("features.patch", "patch_size", o.features.patch.patch_size);
+  v("features.patch", "num_levels", o.features.patch.num_levels);
+  v("features.detector", "fast_threshold", o.features.detector.fast_threshold);
+  v("features.detector", "min_level", o.features.detector.min_level);
+  v("features.detector", "max_level", o.features.detector.max_level);
+  v("features.detector", "grid_cols", o.features.detector.grid_cols);
+  v("features.detector", "grid_rows", o.features.detector.grid_rows);
+  v("features.detector", "min_distance_px", o.features.detector.min_distance_px);
+  v("features.detector", "min_shi_tomasi_score", o.features.detector.min_shi_tomasi_score);
+  v("features.detector", "border_px", o.features.detector.border_px);
+  v("features.detector", "max_candidates_per_bucket",
+    o.features.detector.max_candidates_per_bucket);
+  v("features.photometric", "min_level", o.features.photometric.min_level);
+  v("features.photometric", "max_level", o.features.photometric.max_level);
+  v("features.photometric", "compensate_illumination",
+    o.features.photometric.compensate_illumination);
+  v("health", "max_speed", o.health.max_speed);
+  v("health", "max_position_sigma", o.health.max_position_sigma);
+  v("health", "max_frames_without_features", o.health.max_frames_without_features);
+}
+
+}  // namespace
+
+std::string InitOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(Positive("window_s", window_s));
+  VILMA_RETURN_IF_ERROR(Positive("max_static_accel_std", max_static_accel_std));
+  VILMA_RETURN_IF_ERROR(Positive("max_static_gyro_std", max_static_gyro_std));
+  VILMA_RETURN_IF_ERROR(Positive("max_gravity_error", max_gravity_error));
+  VILMA_RETURN_IF_ERROR(Positive("sigma_velocity_static", sigma_velocity_static));
+  VILMA_RETURN_IF_ERROR(Positive("sigma_velocity_moving", sigma_velocity_moving));
+  VILMA_RETURN_IF_ERROR(Positive("sigma_roll_pitch", sigma_roll_pitch));
+  VILMA_RETURN_IF_ERROR(Positive("sigma_yaw", sigma_yaw));
+  VILMA_RETURN_IF_ERROR(Positive("sigma_gyro_bias", sigma_gyro_bias));
+  VILMA_RETURN_IF_ERROR(Positive("sigma_accel_bias", sigma_accel_bias));
+  VILMA_RETURN_IF_ERROR(NonNegative("sigma_extrinsic_rotation", sigma_extrinsic_rotation));
+  VILMA_RETURN_IF_ERROR(
+      NonNegative("sigma_extrinsic_translation", sigma_extrinsic_translation));
+  VILMA_RETURN_IF_ERROR(NonNegative("sigma_time_offset", sigma_time_offset));
+  return "";
+}
+
+std::string ProcessNoiseOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(NonNegative("bearing", bearing));
+  VILMA_RETURN_IF_ERROR(NonNegative("inverse_depth", inverse_depth));
+  VILMA_RETURN_IF_ERROR(NonNegative("extrinsic_rotation", extrinsic_rotation));
+  VILMA_RETURN_IF_ERROR(NonNegative("extrinsic_translation", extrinsic_translation));
+  VILMA_RETURN_IF_ERROR(NonNegative("time_offset", time_offset));
+  VILMA_RETURN_IF_ERROR(Positive("imu_noise_scale", imu_noise_scale));
+  return "";
+}
+
+std::string UpdateOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(AtLeast("max_iterations", max_iterations, 1));
+  VILMA_RETURN_IF_ERROR(Positive("convergence_px", convergence_px));
+  VILMA_RETURN_IF_ERROR(Positive("intensity_sigma", intensity_sigma));
+  VILMA_RETURN_IF_ERROR(NonNegative("pixel_sigma", pixel_sigma));
+  VILMA_RETURN_IF_ERROR(Positive("huber_threshold", huber_threshold));
+  VILMA_RETURN_IF_ERROR(Positive("mahalanobis_threshold", mahalanobis_threshold));
+  VILMA_RETURN_IF_ERROR(Positive("max_mean_abs_error", max_mean_abs_error));
+  VILMA_RETURN_IF_ERROR(AtLeast("align_iterations", align_iterations, 1));
+  return "";
+}
+
+std::string FeatureOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(AtLeast("max_features", max_features, 1));
+  if (max_features > 1000) return "max_features: expected <= 1000";
+  VILMA_RETURN_IF_ERROR(Positive("init_inverse_depth", init_inverse_depth));
+  VILMA_RETURN_IF_ERROR(Positive("init_inverse_depth_sigma", init_inverse_depth_sigma));
+  VILMA_RETURN_IF_ERROR(Positive("init_bearing_sigma_px", init_bearing_sigma_px));
+  VILMA_RETURN_IF_ERROR(AtLeast("max_failures", max_failures, 1));
+  VILMA_RETURN_IF_ERROR(NonNegative("min_shi_tomasi", min_shi_tomasi));
+  VILMA_RETURN_IF_ERROR(AtLeast("detect_below", detect_below, 0));
+  if (detect_below > max_features) return "detect_below: expected <= max_features";
+  VILMA_RETURN_IF_ERROR(NonNegative("min_inverse_depth", min_inverse_depth));
+  if (patch.patch_size < 2) return "patch.patch_size: expected >= 2";
+  if (patch.num_levels < 1) return "patch.num_levels: expected >= 1";
+  if (photometric.min_level < 0 || photometric.min_level > photometric.max_level) {
+    return "photometric.min_level: expected 0 <= min_level <= max_level";
+  }
+  if (photometric.max_level >= patch.num_levels) {
+    return "photometric.max_level: expected < patch.num_levels";
+  }
+  if (detector.max_level >= patch.num_levels || detector.min_level < 0 ||
+      detector.min_level > detector.max_level) {
+    return "detector.max_level: expected 0 <= min_level <= max_level < patch.num_levels";
+  }
+  if (detector.grid_cols < 1 || detector.grid_rows < 1) {
+    return "detector.grid_cols/grid_rows: expected >= 1";
+  }
+  if (!(detector.min_distance_px >= 0.0)) return "detector.min_distance_px: expected >= 0";
+  if (detector.border_px < 0) return "detector.border_px: expected >= 0";
+  if (detector.fast_threshold < 1) return "detector.fast_threshold: expected >= 1";
+  if (detector.max_candidates_per_bucket < 0) {
+    return "detector.max_candidates_per_bucket: expected >= 0";
+  }
+  return "";
+}
+
+std::string HealthOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(Positive("max_speed", max_speed));
+  VILMA_RETURN_IF_ERROR(Positive("max_position_sigma", max_position_sigma));
+  VILMA_RETURN_IF_ERROR(AtLeast("max_frames_without_features", max_frames_without_features, 1));
+  return "";
+}
+
+std::string FilterOptions::Validate() const {
+  std::string e;
+  if (!(e = init.Validate()).empty()) return "init." + e;
+  if (!(e = noise.Validate()).empty()) return "noise." + e;
+  if (!(e = update.Validate()).empty()) return "update." + e;
+  if (!(e = features.Validate()).empty()) return "features." + e;
+  if (!(e = health.Validate()).empty()) return "health." + e;
+  if (estimate_extrinsics && (init.sigma_extrinsic_rotation <= 0.0 ||
+                              init.sigma_extrinsic_translation <= 0.0)) {
+    return "init.sigma_extrinsic_rotation: expected > 0 when estimate_extrinsics is true";
+  }
+  if (estimate_time_offset && init.sigma_time_offset <= 0.0) {
+    return "init.sigma_time_offset: expected > 0 when estimate_time_offset is true";
+  }
+  return "";
+}
+
+FilterOptions ReadFilterOptions(const YamlNode& root) {
+  FilterOptions options;
+  // Sections are looked up by their dotted path; each section node is checked for unknown
+  // keys after all its fields were read.
+  std::vector<std::pair<std::string, YamlNode>> sections;
+  sections.emplace_back("", root);
+  auto section = [&](const std::string& name) -> const YamlNode& {
+    for (const auto& s : sections) {
+      if (s.first == name) return s.second;
+    }
+    const std::size_t dot = name.rfind('.');
+    const std::string parent = dot == std::string::npos ? "" : name.substr(0, dot);
+    const std::string key = dot == std::string::npos ? name : name.substr(dot + 1);
+    YamlNode parent_node = [&]() {
+      for (const auto& s : sections) {
+        if (s.first == parent) return s.second;
+      }
+      root.Fail(parent, "a map");
+    }();
+    YamlNode child = parent_node.Child(key);
+    if (!child.IsMap()) parent_node.Fail(key, "a map");
+    sections.emplace_back(name, child);
+    return sections.back().second;
+  };
+  if (!root.IsMap()) root.Fail("", "a map of filter options");
+  VisitOptions(options, [&](const char* sec, const char* key, auto& field) {
+    using T = std::decay_t<decltype(field)>;
+    // Copy: `section` may grow the vector and invalidate references.
+    const YamlNode node = section(sec);
+    field = node.Get<T>(key);
+  });
+  for (const auto& s : sections) s.second.CheckNoUnknownKeys();
+  const std::string error = options.Validate();
+  if (!error.empty()) {
+    const std::size_t colon = error.find(": ");
+    throw InputError(FormatInputError(root.file(), error.substr(0, colon),
+                                      error.substr(colon + 2)));
+  }
+  return options;
+}
+
+FilterOptions ParseFilterOptions(const std::string& yaml_text, const std::string& source_name) {
+  return ReadFilterOptions(YamlNode::LoadString(yaml_text, source_name));
+}
+
+FilterOptions LoadFilterOptions(const std::string& path) {
+  return ReadFilterOptions(YamlNode::LoadFile(path));
+}
+
+std::string FilterOptionsToYaml(const FilterOptions& options) {
+  std::ostringstream out;
+  out << std::setprecision(17);
+  std::string current = "";
+  FilterOptions copy = options;
+  VisitOptions(copy, [&](const char* sec, const char* key, auto& field) {
+    const std::string s = sec;
+    if (s != current) {
+      // Print the headers of every section level not printed yet.
+      std::size_t start = 0;
+      while (start <= s.size()) {
+        const std::size_t dot = s.find('.', start);
+        const std::string prefix = s.substr(0, dot);
+        const bool printed = current == prefix || current.rfind(prefix + ".", 0) == 0;
+        if (!printed) {
+          const int depth = static_cast<int>(std::count(prefix.begin(), prefix.end(), '.'));
+          out << std::string(2 * static_cast<std::size_t>(depth), ' ')
+              << prefix.substr(prefix.rfind('.') == std::string::npos ? 0
+                                                                      : prefix.rfind('.') + 1)
+              << ":\n";
+        }
+        if (dot == std::string::npos) break;
+        start = dot + 1;
+      }
+      current = s;
+    }
+    const int depth =
+        s.empty() ? 0 : 1 + static_cast<int>(std::count(s.begin(), s.end(), '.'));
+    out << std::string(2 * static_cast<std::size_t>(depth), ' ') << key << ": ";
+    if constexpr (std::is_same_v<std::decay_t<decltype(field)>, bool>) {
+      out << (field ? "true" : "false");
+    } else {
+      out << field;
+    }
+    out << "\n";
+  });
+  return out.str();
+}
+
+}  // namespace vilma::estimator

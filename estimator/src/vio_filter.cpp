@@ -1,0 +1,533 @@
+#include "vilma/estimator/vio_filter.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+
+#include "vilma/core/error.h"
+#include "vilma/estimator/feature_detector.h"
+
+namespace vilma::estimator {
+namespace {
+
+double Yaw(const Eigen::Quaterniond& q_W_I) {
+  const Eigen::Vector3d x_W = q_W_I * Eigen::Vector3d::UnitX();
+  return std::atan2(x_W.y(), x_W.x());
+}
+
+}  // namespace
+
+VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions& options)
+    : rig_(rig), options_(options) {
+  const std::string error = options.Validate();
+  if (!error.empty()) {
+    const std::size_t colon = error.find(": ");
+    throw InputError(FormatInputError("filter options", error.substr(0, colon),
+                                      error.substr(colon + 2)));
+  }
+  if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
+    throw InputError(FormatInputError("sensor rig", "cameras",
+                                      "a camera with index " + std::to_string(camera_index)));
+  }
+  const std::string rig_error = rig.Validate();
+  if (!rig_error.empty()) throw InputError(FormatInputError("sensor rig", "", rig_error));
+  camera_ = rig.cameras[static_cast<std::size_t>(camera_index)];
+  // The detector ranks candidates with the tracker's own patch.
+  options_.features.detector.patch = options_.features.patch;
+
+  const double s = options.noise.imu_noise_scale;
+  noise_.gyro_noise_density = s * rig.imu.noise.gyroscope_noise_density;
+  noise_.accel_noise_density = s * rig.imu.noise.accelerometer_noise_density;
+  noise_.gyro_random_walk = s * rig.imu.noise.gyroscope_random_walk;
+  noise_.accel_random_walk = s * rig.imu.noise.accelerometer_random_walk;
+  noise_.bearing = options.noise.bearing;
+  noise_.inverse_depth = options.noise.inverse_depth;
+  if (options.estimate_extrinsics) {
+    noise_.extrinsic_rotation = options.noise.extrinsic_rotation;
+    noise_.extrinsic_translation = options.noise.extrinsic_translation;
+  }
+  if (options.estimate_time_offset) noise_.time_offset = options.noise.time_offset;
+
+  const int slots = options.features.max_features;
+  x_.features.assign(static_cast<std::size_t>(slots), FeatureState());
+  x_.q_I_C = camera_.T_I_C.rotation();
+  x_.p_I_C = camera_.T_I_C.translation();
+  P_ = Eigen::MatrixXd::Zero(x_.dim(), x_.dim());
+  tracks_.assign(static_cast<std::size_t>(slots), Track());
+  jacobians_.Resize(slots);
+  x0_ = x_;
+  x_iter_ = x_;
+  dx_ = Eigen::VectorXd::Zero(x_.dim());
+  PHt_.resize(x_.dim(), 2);
+  K_.resize(x_.dim(), 2);
+  KS_.resize(x_.dim(), 2);
+  Pcols_.resize(x_.dim(), 3);
+  occupied_.reserve(static_cast<std::size_t>(slots));
+  imu_.reserve(4096);
+}
+
+void VioFilter::AddImu(const ImuSample& sample) {
+  if (!imu_.empty() && sample.t_ns <= imu_.back().t_ns) {
+    ++stats_.imu_duplicates;  // duplicated or out of order: never integrate twice
+    return;
+  }
+  if (!sample.omega_I.allFinite() || !sample.a_I.allFinite()) {
+    ++stats_.imu_duplicates;
+    return;
+  }
+  if (!imu_.empty()) {
+    const double nominal_ns = 1e9 / rig_.imu.rate_hz;
+    if (static_cast<double>(sample.t_ns - imu_.back().t_ns) > 5.0 * nominal_ns) ++stats_.imu_gaps;
+  }
+  ++stats_.imu_samples;
+  imu_.push_back(sample);
+  if (!initialized_ && imu_.size() > 4000) {
+    // Before initialization only the last window matters.
+    imu_.erase(imu_.begin(), imu_.begin() + 2000);
+  }
+}
+
+bool VioFilter::Initialize(int64_t t_ns, std::string* why_not) {
+  const int64_t window_ns = static_cast<int64_t>(options_.init.window_s * 1e9);
+  // Motion test on 50 ms block means: vibration (EuRoC's rotors: 0.8 m/s^2 sample std at
+  // rest) averages out, a change of velocity or attitude does not.
+  constexpr int kMaxBlocks = 64;
+  constexpr int64_t kBlockNs = 50'000'000;
+  Eigen::Vector3d block_a[kMaxBlocks], block_g[kMaxBlocks];
+  int block_n[kMaxBlocks] = {};
+  for (int b = 0; b < kMaxBlocks; ++b) {
+    block_a[b].setZero();
+    block_g[b].setZero();
+  }
+  Eigen::Vector3d sum_a = Eigen::Vector3d::Zero(), sum_g = Eigen::Vector3d::Zero();
+  int count = 0;
+  int64_t first = 0, last = 0;
+  for (const ImuSample& s : imu_) {
+    if (s.t_ns < t_ns - window_ns || s.t_ns > t_ns) continue;
+    if (count == 0) first = s.t_ns;
+    last = s.t_ns;
+    sum_a += s.a_I;
+    sum_g += s.omega_I;
+    const int b = static_cast<int>(
+        std::min<int64_t>(kMaxBlocks - 1, (s.t_ns - (t_ns - window_ns)) / kBlockNs));
+    block_a[b] += s.a_I;
+    block_g[b] += s.omega_I;
+    ++block_n[b];
+    ++count;
+  }
+  // Half the window is enough (a reset right after start has less history).
+  if (count < 5 || static_cast<double>(last - first) < 0.5 * static_cast<double>(window_ns)) {
+    *why_not = "not enough IMU data before the frame";
+    return false;
+  }
+  const Eigen::Vector3d mean_a = sum_a / count, mean_g = sum_g / count;
+  if (!mean_a.allFinite() || !mean_g.allFinite() ||
+      std::abs(mean_a.norm() - rig_.imu.gravity_magnitude) > options_.init.max_gravity_error) {
+    *why_not = "mean accelerometer is not gravity";
+    return false;
+  }
+  double var_a = 0.0, var_g = 0.0;
+  int blocks = 0;
+  for (int b = 0; b < kMaxBlocks; ++b) {
+    if (block_n[b] == 0) continue;
+    var_a += (block_a[b] / block_n[b] - mean_a).squaredNorm();
+    var_g += (block_g[b] / block_n[b] - mean_g).squaredNorm();
+    ++blocks;
+  }
+  const double std_a = std::sqrt(var_a / blocks), std_g = std::sqrt(var_g / blocks);
+  const bool is_static =
+      std_a < options_.init.max_static_accel_std && std_g < options_.init.max_static_gyro_std;
+  if (is_static) {
+    ++stats_.static_starts;
+  } else {
+    ++stats_.moving_starts;
+  }
+
+  // At rest the accelerometer measures -g in I: R_W_I mean_a is along +z of W. The minimal
+  // rotation that does this fixes roll and pitch; yaw is free (set to 0, or kept on a reset).
+  Eigen::Quaterniond q_W_I = Eigen::Quaterniond::FromTwoVectors(mean_a, Eigen::Vector3d::UnitZ());
+  Eigen::Vector3d p_W_I = Eigen::Vector3d::Zero();
+  if (have_previous_reset_pose_) {
+    q_W_I = Eigen::AngleAxisd(Yaw(reset_pose_.rotation()) - Yaw(q_W_I),
+                              Eigen::Vector3d::UnitZ()) *
+            q_W_I;
+    p_W_I = reset_pose_.translation();
+  } else {
+    q_W_I = Eigen::AngleAxisd(-Yaw(q_W_I), Eigen::Vector3d::UnitZ()) * q_W_I;
+  }
+  x_.t_ns = t_ns;
+  x_.p_W_I = p_W_I;
+  x_.v_W.setZero();
+  x_.q_W_I = q_W_I.normalized();
+  // A moving start cannot separate the gyro bias from the rotation: start at zero.
+  x_.b_g = is_static ? mean_g : Eigen::Vector3d::Zero();
+  x_.b_a.setZero();
+  x_.q_I_C = camera_.T_I_C.rotation();
+  x_.p_I_C = camera_.T_I_C.translation();
+  x_.td = 0.0;
+  for (std::size_t i = 0; i < x_.features.size(); ++i) {
+    x_.features[i].active = false;
+    tracks_[i] = Track();
+  }
+  const InitOptions& o = options_.init;
+  P_.setZero();
+  P_.block<3, 3>(kIdxP, kIdxP) = Eigen::Matrix3d::Identity() * 1e-8;
+  const double sv = is_static ? o.sigma_velocity_static : o.sigma_velocity_moving;
+  P_.block<3, 3>(kIdxV, kIdxV) = Eigen::Matrix3d::Identity() * sv * sv;
+  // Roll/pitch/yaw uncertainty is stated in W; the error dtheta is in I: Sigma_I = R^T Sigma_W R.
+  const Eigen::Matrix3d R = x_.q_W_I.toRotationMatrix();
+  const Eigen::Vector3d sigma_W(o.sigma_roll_pitch, o.sigma_roll_pitch, o.sigma_yaw);
+  P_.block<3, 3>(kIdxQ, kIdxQ) =
+      R.transpose() * sigma_W.cwiseAbs2().asDiagonal() * R;
+  P_.block<3, 3>(kIdxBg, kIdxBg) =
+      Eigen::Matrix3d::Identity() * o.sigma_gyro_bias * o.sigma_gyro_bias;
+  P_.block<3, 3>(kIdxBa, kIdxBa) =
+      Eigen::Matrix3d::Identity() * o.sigma_accel_bias * o.sigma_accel_bias;
+  if (options_.estimate_extrinsics) {
+    P_.block<3, 3>(kIdxQIC, kIdxQIC) =
+        Eigen::Matrix3d::Identity() * o.sigma_extrinsic_rotation * o.sigma_extrinsic_rotation;
+    P_.block<3, 3>(kIdxPIC, kIdxPIC) = Eigen::Matrix3d::Identity() *
+                                        o.sigma_extrinsic_translation *
+                                        o.sigma_extrinsic_translation;
+  }
+  if (options_.estimate_time_offset) {
+    P_(kIdxTd, kIdxTd) = o.sigma_time_offset * o.sigma_time_offset;
+  }
+  frames_without_updates_ = 0;
+  initialized_ = true;
+  return true;
+}
+
+void VioFilter::Propagate(int64_t t_target) {
+  if (imu_.empty()) {
+    x_.t_ns = std::max(x_.t_ns, t_target);
+    return;
+  }
+  auto measurement_at = [&](int64_t t, Eigen::Vector3d* omega, Eigen::Vector3d* a) {
+    // Linear interpolation; held constant outside the buffered samples.
+    auto it = std::upper_bound(imu_.begin(), imu_.end(), t,
+                               [](int64_t v, const ImuSample& s) { return v < s.t_ns; });
+    if (it == imu_.begin()) {
+      *omega = it->omega_I;
+      *a = it->a_I;
+    } else if (it == imu_.end()) {
+      *omega = imu_.back().omega_I;
+      *a = imu_.back().a_I;
+    } else {
+      const ImuSample s = InterpolateImu(*(it - 1), *it, t);
+      *omega = s.omega_I;
+      *a = s.a_I;
+    }
+  };
+  while (x_.t_ns < t_target) {
+    auto next = std::upper_bound(imu_.begin(), imu_.end(), x_.t_ns,
+                                 [](int64_t v, const ImuSample& s) { return v < s.t_ns; });
+    const int64_t t1 = next == imu_.end() ? t_target : std::min(next->t_ns, t_target);
+    const int64_t t0 = x_.t_ns;
+    Eigen::Vector3d omega, a;
+    measurement_at(t0 + (t1 - t0) / 2, &omega, &a);  // midpoint of the interval
+    last_omega_m_ = omega;
+    const double dt = static_cast<double>(t1 - t0) * 1e-9;
+    PropagateMean(omega, a, dt, rig_.imu.gravity_magnitude, &x_, &jacobians_);
+    for (std::size_t i = 0; i < x_.features.size(); ++i) {
+      if (x_.features[i].active) {
+        tracks_[i].A = jacobians_.F_feature_self[i].topLeftCorner<2, 2>() * tracks_[i].A;
+      }
+    }
+    PropagateCovariance(jacobians_, noise_, dt, x_.features, &P_, &workspace_);
+    x_.t_ns = t1;
+  }
+  // Keep the last init window of samples (for a re-initialization after a reset).
+  const int64_t keep_from = x_.t_ns - static_cast<int64_t>(options_.init.window_s * 1e9);
+  auto first_kept = std::lower_bound(imu_.begin(), imu_.end(), keep_from,
+                                     [](const ImuSample& s, int64_t v) { return s.t_ns < v; });
+  if (first_kept != imu_.begin()) --first_kept;
+  imu_.erase(imu_.begin(), first_kept);
+}
+
+Eigen::Matrix2d VioFilter::Warp(int slot, const Eigen::Matrix<double, 2, 3>& J_pixel_p_C) const {
+  // d pixel(now) / d pixel(extraction) = d pixel/d tangent(now) * A * d tangent/d pixel (ext.):
+  // the affine patch warp from the bearing-vector Jacobians (IJRR 2017, sec. 4.2).
+  const std::size_t i = static_cast<std::size_t>(slot);
+  return J_pixel_p_C * BearingBasis(x_.features[i].mu_C) * tracks_[i].A * tracks_[i].D;
+}
+
+Eigen::Vector3d VioFilter::BearingRate(const FilterState& x, int slot) const {
+  // mu_dot = -omega_C x mu - rho (I - mu mu^T) v_C (IJRR 2017, eq. 12), with the camera rates
+  // of the last IMU measurement.
+  const FeatureState& f = x.features[static_cast<std::size_t>(slot)];
+  const Eigen::Matrix3d R_C_I = x.q_I_C.toRotationMatrix().transpose();
+  const Eigen::Vector3d omega_I = last_omega_m_ - x.b_g;
+  const Eigen::Vector3d omega_C = R_C_I * omega_I;
+  const Eigen::Vector3d v_C =
+      R_C_I * (x.q_W_I.conjugate() * x.v_W + omega_I.cross(x.p_I_C));
+  return -omega_C.cross(f.mu_C) - f.rho * (v_C - f.mu_C.dot(v_C) * f.mu_C);
+}
+
+bool VioFilter::PredictPixel(const FilterState& x, int slot, Eigen::Vector2d* pixel,
+                             Eigen::Matrix<double, 2, 3>* J_pixel_mu,
+                             Eigen::Vector2d* J_pixel_td) const {
+  // The image was taken td after the state's time: mu(t + td) ~ mu + mu_dot td.
+  const Eigen::Vector3d mu_dot = BearingRate(x, slot);
+  const Eigen::Vector3d mu_t =
+      (x.features[static_cast<std::size_t>(slot)].mu_C + mu_dot * x.td).normalized();
+  Eigen::Matrix<double, 2, 3> Jp;
+  if (camera_.camera.Project(mu_t, pixel, &Jp) != Camera::ProjectionResult::kValid) return false;
+  if (J_pixel_mu != nullptr) *J_pixel_mu = Jp;
+  if (J_pixel_td != nullptr) *J_pixel_td = Jp * mu_dot;
+  return true;
+}
+
+bool VioFilter::UpdateFeature(int slot) {
+  const std::size_t i = static_cast<std::size_t>(slot);
+  const int k = FeatureIndex(slot);
+  Track& track = tracks_[i];
+  const UpdateOptions& uo = options_.update;
+  const PhotometricOptions& po = options_.features.photometric;
+
+  // The measurement depends on the feature's bearing (2 columns) and on the time-offset
+  // correction td (1 column): gather those columns of P once.
+  const int cols[3] = {k, k + 1, kIdxTd};
+  for (int c = 0; c < 3; ++c) Pcols_.col(c) = P_.col(cols[c]);
+  Eigen::Matrix3d P_sub;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 3; ++c) P_sub(r, c) = P_(cols[r], cols[c]);
+  }
+
+  Eigen::Vector2d pixel, J_td;
+  Eigen::Matrix<double, 2, 3> Jp;
+  if (!PredictPixel(x_, slot, &pixel, &Jp, &J_td)) {
+    track.failures = options_.features.max_failures;  // left the image: drop
+    return false;
+  }
+  const Eigen::Matrix2d W = Warp(slot, Jp);
+  if (!W.allFinite() || std::abs(W.determinant()) < 0.05 || std::abs(W.determinant()) > 20.0) {
+    track.failures = options_.features.max_failures;  // degenerate perspective: drop
+    return false;
+  }
+
+  // 1. Outlier check: align the patch from the prediction and gate the aligned pixel by the
+  //    predicted pixel covariance (Mahalanobis, 2 DoF).
+  const AlignmentResult aligned =
+      AlignPatch(track.patch, pyramid_, pixel, W, po, uo.align_iterations);
+  const Eigen::Matrix<double, 3, 2> B0 = BearingBasis(x_.features[i].mu_C);
+  Eigen::Matrix<double, 2, 3> J0;  // d pixel / d (dmu, dtd)
+  J0 << Jp * B0, J_td;
+  const Eigen::Matrix2d S_pix =
+      J0 * P_sub * J0.transpose() + uo.pixel_sigma * uo.pixel_sigma * Eigen::Matrix2d::Identity() +
+      Eigen::Matrix2d::Identity() * 0.25;  // alignment precision [px^2]
+  const Eigen::Vector2d e = aligned.pixel - pixel;
+  if (!aligned.converged || aligned.mean_abs_error > uo.max_mean_abs_error ||
+      !(e.dot(S_pix.ldlt().solve(e)) < uo.mahalanobis_threshold)) {
+    ++track.failures;
+    return false;
+  }
+
+  // 2. Iterated EKF on the photometric error (IJRR 2017, sec. 5). The iteration starts at the
+  //    state that explains the aligned pixel (a better first linearization point; the IEKF
+  //    result depends only on the last one): x_{j+1} = x0 [+] K_j (-y_j + H_j (x_j [-] x0)).
+  x0_ = x_;
+  const Eigen::Vector3d mu0 = x0_.features[i].mu_C;
+  PHt_.noalias() = Pcols_ * J0.transpose();
+  K_.noalias() = PHt_ * S_pix.inverse();
+  dx_.noalias() = K_ * e;
+  BoxPlus(x0_, dx_, &x_iter_);
+
+  Eigen::Matrix2d S = Eigen::Matrix2d::Identity();
+  bool have_gain = false;
+  Eigen::Vector2d last_pixel = aligned.pixel;
+  for (int it = 0; it < uo.max_iterations; ++it) {
+    const Eigen::Vector3d& mu = x_iter_.features[i].mu_C;
+    Eigen::Vector2d pixel_it, J_td_it;
+    Eigen::Matrix<double, 2, 3> Jp_it;
+    if (!PredictPixel(x_iter_, slot, &pixel_it, &Jp_it, &J_td_it)) break;
+    if (!ComputePhotometricResidual(track.patch, pyramid_, pixel_it, W, po, &residual_,
+                                    &J_residual_pixel_)) {
+      break;
+    }
+    // Huber weights: rows scaled by sqrt(w), w = min(1, c / |r|).
+    for (Eigen::Index r = 0; r < residual_.size(); ++r) {
+      const double a = std::abs(residual_[r]);
+      if (a > uo.huber_threshold) {
+        const double sw = std::sqrt(uo.huber_threshold / a);
+        residual_[r] *= sw;
+        J_residual_pixel_.row(r) *= sw;
+      }
+    }
+    // QR reduction J = Q R to 2 rows: with L L^T = J^T J (R = L^T), Q1^T r = L^-1 J^T r.
+    const Eigen::Matrix2d JtJ = J_residual_pixel_.transpose() * J_residual_pixel_;
+    const Eigen::LLT<Eigen::Matrix2d> llt(JtJ);
+    if (llt.info() != Eigen::Success) break;
+    const Eigen::Matrix2d L = llt.matrixL();
+    const Eigen::Matrix2d R_qr = L.transpose();
+    const Eigen::Vector2d y =
+        L.triangularView<Eigen::Lower>().solve(J_residual_pixel_.transpose() * residual_);
+    // d pixel / d (tangent at mu0, td), evaluated at the current state.
+    Eigen::Matrix<double, 2, 3> J_it;
+    J_it << Jp_it * (Eigen::Matrix3d::Identity() - mu * mu.transpose()) * B0, J_td_it;
+    const Eigen::Matrix<double, 2, 3> H = R_qr * J_it;
+    S = H * P_sub * H.transpose() +
+        uo.intensity_sigma * uo.intensity_sigma * Eigen::Matrix2d::Identity() +
+        uo.pixel_sigma * uo.pixel_sigma * R_qr * R_qr.transpose();
+    Eigen::Vector3d d_cur;
+    d_cur << BearingBoxMinus(mu, mu0), x_iter_.td - x0_.td;
+    PHt_.noalias() = Pcols_ * H.transpose();
+    K_.noalias() = PHt_ * S.inverse();
+    dx_.noalias() = K_ * (-y + H * d_cur);
+    BoxPlus(x0_, dx_, &x_iter_);
+    have_gain = true;
+    Eigen::Vector2d pixel_new;
+    if (!PredictPixel(x_iter_, slot, &pixel_new, nullptr, nullptr)) break;
+    const bool converged = (pixel_new - last_pixel).norm() < uo.convergence_px;
+    last_pixel = pixel_new;
+    if (converged) break;
+  }
+  if (!have_gain || !x_iter_.features[i].mu_C.allFinite()) {
+    ++track.failures;
+    return false;
+  }
+  x_ = x_iter_;
+  // P = P0 - K S K^T (K is the gain of S at the last linearization).
+  KS_.noalias() = K_ * S;
+  P_.noalias() -= KS_ * K_.transpose();
+  track.failures = 0;
+  ++track.age;
+  return true;
+}
+
+void VioFilter::RemoveFeature(int slot) {
+  const std::size_t i = static_cast<std::size_t>(slot);
+  const int k = FeatureIndex(slot);
+  x_.features[i].active = false;
+  P_.middleRows<kFeatureDim>(k).setZero();
+  P_.middleCols<kFeatureDim>(k).setZero();
+  tracks_[i].failures = 0;
+  tracks_[i].age = 0;
+}
+
+void VioFilter::AddFeatures() {
+  const int active = x_.num_active();
+  const FeatureOptions& fo = options_.features;
+  if (active >= fo.detect_below && active > 0) return;
+  occupied_.clear();
+  for (const FeatureState& f : x_.features) {
+    if (!f.active) continue;
+    Eigen::Vector2d px;
+    camera_.camera.Project(f.mu_C, &px);  // (td is far below a pixel's worth of motion here)
+    occupied_.push_back(px);
+  }
+  const std::vector<FeatureCandidate> candidates =
+      DetectFeatures(pyramid_, occupied_, fo.max_features - active, fo.detector);
+  std::size_t slot = 0;
+  for (const FeatureCandidate& c : candidates) {
+    while (slot < x_.features.size() && x_.features[slot].active) ++slot;
+    if (slot >= x_.features.size()) break;
+    Track& track = tracks_[slot];
+    if (!track.patch.Extract(pyramid_, c.pixel, Eigen::Matrix2d::Identity(), fo.patch)) continue;
+    if (track.patch.ShiTomasiScore() < fo.min_shi_tomasi) continue;
+    Eigen::Vector3d mu;
+    Eigen::Matrix<double, 3, 2> J_mu_px;
+    if (!camera_.camera.Unproject(c.pixel, &mu, &J_mu_px)) continue;
+    FeatureState& f = x_.features[slot];
+    f.active = true;
+    f.mu_C = mu;
+    f.rho = fo.init_inverse_depth;
+    track.A.setIdentity();
+    track.D = BearingBasis(mu).transpose() * J_mu_px;
+    track.failures = 0;
+    track.age = 0;
+    const int k = FeatureIndex(static_cast<int>(slot));
+    P_.middleRows<kFeatureDim>(k).setZero();
+    P_.middleCols<kFeatureDim>(k).setZero();
+    const double sp = fo.init_bearing_sigma_px;
+    P_.block<2, 2>(k, k) = sp * sp * track.D * track.D.transpose();
+    P_(k + 2, k + 2) = fo.init_inverse_depth_sigma * fo.init_inverse_depth_sigma;
+  }
+}
+
+std::string VioFilter::CheckHealth() const {
+  if (!x_.p_W_I.allFinite() || !x_.v_W.allFinite() || !x_.q_W_I.coeffs().allFinite() ||
+      !x_.b_g.allFinite() || !x_.b_a.allFinite() || !P_.diagonal().allFinite()) {
+    return "state or covariance not finite";
+  }
+  if (P_.diagonal().minCoeff() < -1e-9) return "covariance lost positive definiteness";
+  if (x_.v_W.norm() > options_.health.max_speed) return "implausible velocity";
+  const double max_sigma = options_.health.max_position_sigma;
+  if (P_.block<3, 3>(kIdxP, kIdxP).diagonal().maxCoeff() > max_sigma * max_sigma) {
+    return "position covariance blow-up";
+  }
+  if (frames_without_updates_ > options_.health.max_frames_without_features) {
+    return "all features lost";
+  }
+  return "";
+}
+
+FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8) {
+  ++stats_.frames;
+  FrameResult result;
+  const int64_t t_ns = t_cam_ns + camera_.time_offset_ns;
+  result.t_ns = t_ns;
+  if (!initialized_) {
+    std::string why_not;
+    if (!Initialize(t_ns, &why_not)) {
+      ++stats_.frames_without_imu;
+      return result;
+    }
+    result.initialized_now = true;
+  } else {
+    if (t_ns <= x_.t_ns) return result;  // duplicated or out-of-order frame: ignored
+    Propagate(t_ns);
+  }
+  pyramid_.Build(image_gray8, options_.features.patch.num_levels);
+
+  for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
+    if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
+    if (UpdateFeature(slot)) {
+      ++result.num_updated;
+    } else {
+      ++result.num_rejected;
+    }
+  }
+  // Symmetrize in place (no temporary).
+  for (Eigen::Index c = 0; c < P_.cols(); ++c) {
+    for (Eigen::Index r = c + 1; r < P_.rows(); ++r) {
+      const double m = 0.5 * (P_(r, c) + P_(c, r));
+      P_(r, c) = m;
+      P_(c, r) = m;
+    }
+  }
+  for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
+    const FeatureState& f = x_.features[static_cast<std::size_t>(slot)];
+    if (!f.active) continue;
+    if (tracks_[static_cast<std::size_t>(slot)].failures >= options_.features.max_failures ||
+        f.rho < options_.features.min_inverse_depth) {
+      RemoveFeature(slot);
+    }
+  }
+  stats_.updates += result.num_updated;
+  stats_.rejections += result.num_rejected;
+  frames_without_updates_ = result.num_updated > 0 || result.initialized_now
+                                ? 0
+                                : frames_without_updates_ + 1;
+  const int before = x_.num_active();
+  AddFeatures();
+  result.num_added = x_.num_active() - before;
+  result.num_features = x_.num_active();
+
+  const std::string health = CheckHealth();
+  if (!health.empty()) {
+    ++stats_.resets;
+    result.reset = true;
+    result.reset_reason = health;
+    initialized_ = false;
+    // Restart from the last pose that was still finite, else from the origin.
+    have_previous_reset_pose_ = x_.p_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
+    if (have_previous_reset_pose_) reset_pose_ = T_M_I();
+    return result;
+  }
+  result.pose_valid = true;
+  result.T_M_I = T_M_I();
+  return result;
+}
+
+}  // namespace vilma::estimator

@@ -1,0 +1,94 @@
+#!/usr/bin/env bash
+# VIO benchmark: runs `vilma vio` and `vilma eval --align posyaw` over the synthetic benchmark
+# sets of scripts/make-datasets.sh and the real static EuRoC slice, and prints one table
+# (docs/benchmarks.md, "VIO"). Sets that do not exist are listed as missing.
+#
+# Usage: scripts/bench-vio.sh [--config FILE] [--keep DIR]
+#   VILMA_BUILD_DIR  build folder with bin/vilma (default <repo>/build)
+#   VILMA_CACHE      cache folder; the sets are in $VILMA_CACHE/datasets (default ~/.cache/vilma)
+#   VILMA_SHARED_DATA_DIR  real data (default <repo>/../shared/data)
+# Columns: duration [s], ground-truth path length [m], ATE RMSE [m] and in % of the path,
+# ATE max [m], worst roll/pitch error [deg] (gravity direction in the body frame, independent of
+# the yaw alignment), per-frame filter time p50/p99 [ms] (one core, images loaded outside the
+# timing), real-time factor of the whole run (wall time including PNG decoding).
+set -euo pipefail
+
+repo_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
+build_dir="${VILMA_BUILD_DIR:-$repo_dir/build}"
+datasets_dir="${VILMA_CACHE:-$HOME/.cache/vilma}/datasets"
+shared_dir="${VILMA_SHARED_DATA_DIR:-$repo_dir/../shared/data}"
+vilma="$build_dir/bin/vilma"
+config_args=()
+keep=""
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --config) config_args=(--config "$2"); shift 2 ;;
+    --keep) keep="$2"; shift 2 ;;
+    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "bench-vio.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
+  esac
+done
+[[ -x "$vilma" ]] || { echo "bench-vio.sh: $vilma not built (set VILMA_BUILD_DIR)" >&2; exit 1; }
+
+work="${keep:-$(mktemp -d /tmp/vilma-bench-vio.XXXXXX)}"
+mkdir -p "$work"
+[[ -n "$keep" ]] || trap 'rm -rf "$work"' EXIT
+
+names=(room-easy room-fast hall street euroc_V1_01_micro)
+rows=()
+missing=()
+for name in "${names[@]}"; do
+  if [[ "$name" == euroc_* ]]; then dir="$shared_dir/$name"; else dir="$datasets_dir/$name"; fi
+  if [[ ! -d "$dir/mav0" ]]; then missing+=("$name ($dir)"); continue; fi
+  gt="$dir/mav0/state_groundtruth_estimate0/data.csv"
+  "$vilma" vio "$dir" "${config_args[@]}" --out "$work/$name.txt" \
+      --log-timing "$work/$name.timing.csv" > "$work/$name.vio.out" 2> "$work/$name.vio.err" || {
+    echo "bench-vio.sh: vilma vio failed on $name:" >&2; cat "$work/$name.vio.err" >&2; exit 1; }
+  "$vilma" eval --gt "$gt" --est "$work/$name.txt" --align posyaw --segments 1 \
+      --json "$work/$name.json" > "$work/$name.eval.out"
+  rows+=("$(python3 - "$name" "$work/$name.vio.out" "$work/$name.json" "$work/$name.timing.csv" \
+                      "$gt" "$work/$name.txt" <<'PY'
+import json, math, re, sys
+name, vio_out, json_path, timing_path, gt_path, est_path = sys.argv[1:]
+text = open(vio_out).read()
+duration = float(re.search(r"duration\s+([0-9.]+) s", text).group(1))
+rtf = float(re.search(r"real-time factor\s+([0-9.]+)x", text).group(1))
+resets = int(re.search(r"resets\s+(\d+)", text).group(1))
+ms = sorted(float(l.split(",")[1]) for l in open(timing_path).readlines()[1:])
+pct = lambda q: ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
+j = json.load(open(json_path))
+path = j["gt_path_length_m"]; rmse = j["ate"]["translation_rmse_m"]
+amax = j["ate"]["translation_max_m"]
+def gravity_in_body(w, x, y, z):  # third row of R_W_B: e_z of W seen in B
+    n = math.sqrt(w*w + x*x + y*y + z*z); w, x, y, z = w/n, x/n, y/n, z/n
+    return (2*(x*z - w*y), 2*(y*z + w*x), 1 - 2*(x*x + y*y))
+gt = {}
+for l in open(gt_path):
+    if l.startswith("#") or not l.strip(): continue
+    v = l.split(","); gt[int(v[0])] = gravity_in_body(*map(float, v[4:8]))
+stamps = sorted(gt)
+import bisect
+tilt = 0.0
+for l in open(est_path):
+    if l.startswith("#") or not l.strip(): continue
+    v = l.split(); s, frac = v[0].split("."); t = int(s) * 10**9 + int(frac.ljust(9, "0")[:9])
+    i = bisect.bisect_left(stamps, t)
+    best = min((abs(stamps[k] - t), stamps[k]) for k in (i - 1, i) if 0 <= k < len(stamps))
+    if best[0] > 5_000_000: continue
+    ge = gravity_in_body(float(v[7]), float(v[4]), float(v[5]), float(v[6])); gg = gt[best[1]]
+    d = max(-1.0, min(1.0, sum(a * b for a, b in zip(ge, gg))))
+    tilt = max(tilt, math.degrees(math.acos(d)))
+pct_path = 100.0 * rmse / path if path > 0 else float("nan")
+print(f"| {name} | {duration:.1f} | {path:.2f} | {rmse:.4f} | {pct_path:.2f} | {amax:.4f} | "
+      f"{tilt:.2f} | {pct(0.5):.2f} / {pct(0.99):.2f} | {rtf:.1f} | {resets} |")
+PY
+)")
+done
+
+echo "| dataset | duration [s] | path [m] | ATE RMSE [m] | ATE [% path] | ATE max [m] | roll/pitch err max [deg] | ms/frame p50 / p99 | real-time factor | resets |"
+echo "|---|---|---|---|---|---|---|---|---|---|"
+printf '%s\n' "${rows[@]}"
+if [[ ${#missing[@]} -gt 0 ]]; then
+  echo
+  echo "missing (make them with scripts/make-datasets.sh): ${missing[*]}"
+fi

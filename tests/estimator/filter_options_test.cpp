@@ -1,0 +1,72 @@
+#include "vilma/estimator/filter_options.h"
+
+#include <catch2/catch.hpp>
+#include <fstream>
+#include <regex>
+#include <sstream>
+
+namespace vilma::estimator {
+namespace {
+
+std::string ReadConfig() {
+  std::ifstream in(std::string(VILMA_SOURCE_DIR) + "/config/estimator.yaml");
+  REQUIRE(in);
+  std::stringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST_CASE("config/estimator.yaml loads and equals the built-in defaults") {
+  const FilterOptions loaded =
+      LoadFilterOptions(std::string(VILMA_SOURCE_DIR) + "/config/estimator.yaml");
+  CHECK(FilterOptionsToYaml(loaded) == FilterOptionsToYaml(FilterOptions()));
+  CHECK(FilterOptions().Validate().empty());
+}
+
+TEST_CASE("the YAML writer round-trips") {
+  FilterOptions o;
+  o.features.max_features = 40;
+  o.update.intensity_sigma = 3.25;
+  o.estimate_extrinsics = true;
+  o.features.photometric.compensate_illumination = false;
+  const FilterOptions back = ParseFilterOptions(FilterOptionsToYaml(o), "written");
+  CHECK(FilterOptionsToYaml(back) == FilterOptionsToYaml(o));
+  CHECK(back.features.max_features == 40);
+}
+
+TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
+  const std::string good = ReadConfig();
+  auto replace = [&](const std::string& from, const std::string& to) {
+    const std::size_t at = good.find(from);
+    REQUIRE(at != std::string::npos);
+    std::string text = good;
+    text.replace(at, from.size(), to);
+    return text;
+  };
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("max_features: 25", "max_features: 0"), "f.yaml"),
+                    "f.yaml: features.max_features: expected >= 1");
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("max_features: 25", "max_features: many"), "f.yaml"),
+      Catch::Contains("f.yaml: features.max_features") && Catch::Contains("integer"));
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("  max_features: 25", "  max_feature: 25"), "f.yaml"),
+      Catch::Contains("f.yaml: features.max_features"));  // missing key
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("  max_speed: 30.0", "  max_speed: 30.0\n  color: red"),
+                         "f.yaml"),
+      Catch::Contains("f.yaml") && Catch::Contains("color"));  // unknown key
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("intensity_sigma: 6.0", "intensity_sigma: -1"), "f.yaml"),
+      "f.yaml: update.intensity_sigma: expected > 0");
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("    max_level: 3", "    max_level: 4"), "f.yaml"),
+      Catch::Contains("photometric.max_level: expected < patch.num_levels"));
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("detect_below: 20", "detect_below: 30"), "f.yaml"),
+                    "f.yaml: features.detect_below: expected <= max_features");
+  CHECK_THROWS_WITH(ParseFilterOptions("[1, 2]", "f.yaml"), Catch::Contains("f.yaml"));
+  CHECK_THROWS_WITH(LoadFilterOptions("/nonexistent/estimator.yaml"),
+                    Catch::Contains("/nonexistent/estimator.yaml"));
+}
+
+}  // namespace
+}  // namespace vilma::estimator
