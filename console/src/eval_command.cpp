@@ -25,6 +25,10 @@ extern char** environ;
 namespace vilma::console {
 namespace {
 
+// Below this ground-truth path length [m] the alignment's rotation is not determined.
+constexpr double kMinPathForRotationAlignment = 0.5;
+
+
 double ParseNumber(const std::string& option, const std::string& text) {
   char* end = nullptr;
   errno = 0;
@@ -349,7 +353,16 @@ void WriteEvalReport(std::ostream& out, const EvalCommandOptions& options, const
       << Fixed(p.z(), 4) << ")";
   if (a.type == AlignmentType::kSim3) out << "  scale " << Fixed(a.scale, 6);
   out << "\n";
-  out << "gt path:       " << Fixed(result.gt_path_length_m, 3) << " m\n\n";
+  out << "gt path:       " << Fixed(result.gt_path_length_m, 3) << " m\n";
+  // Alignments fit the rotation to the positions: a (nearly) static trajectory leaves it
+  // undetermined, and the rotation errors then hold an arbitrary yaw (or more).
+  if (a.type != AlignmentType::kNone && result.gt_path_length_m < kMinPathForRotationAlignment) {
+    out << "note:          the ground-truth path is shorter than "
+        << kMinPathForRotationAlignment
+        << " m: the alignment cannot fix the rotation, so the rotation errors below include an "
+           "arbitrary yaw; use --align none for a static sequence\n";
+  }
+  out << "\n";
   const ErrorStats& t = result.ate.translation_m;
   const ErrorStats& r = result.ate.rotation_deg;
   out << "ATE translation [m]:  rmse " << Fixed(t.rmse, 4) << "  mean " << Fixed(t.mean, 4)

@@ -254,3 +254,35 @@ TEST_CASE("the vilma binary dispatches eval", "[eval]") {
 }
 
 }  // namespace vilma::console
+
+namespace vilma::console {
+namespace {
+
+TEST_CASE("eval warns when a static trajectory leaves the alignment's rotation free",
+          "[eval]") {
+  Files f;
+  f.dir = TestDir();
+  f.gt = f.dir + "/static_gt.txt";
+  f.est = f.dir + "/static_est.txt";
+  Trajectory gt, est;
+  for (int i = 0; i < 100; ++i) {
+    const int64_t t = 1403715273262142976 + int64_t{i} * 50000000;
+    gt.Add(t, Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1, 2, 0.001 * i)));
+    est.Add(t, Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, 0, 0.001 * i)));
+  }
+  WriteTrajectoryFile(f.gt, gt, TrajectoryFormat::kTum);
+  WriteTrajectoryFile(f.est, est, TrajectoryFormat::kTum);
+  const Result aligned = Eval({"--gt", f.gt, "--est", f.est, "--align", "posyaw"});
+  REQUIRE(aligned.code == kExitOk);
+  CHECK_THAT(aligned.out, Catch::Contains("note:") && Catch::Contains("arbitrary yaw"));
+  const Result unaligned = Eval({"--gt", f.gt, "--est", f.est, "--align", "none"});
+  REQUIRE(unaligned.code == kExitOk);
+  CHECK_THAT(unaligned.out, !Catch::Contains("note:"));
+  // A long path (the figure-eight) gets no note.
+  Files g;
+  WriteInputs(g);
+  CHECK_THAT(Eval({"--gt", g.gt, "--est", g.est}).out, !Catch::Contains("note:"));
+}
+
+}  // namespace
+}  // namespace vilma::console
