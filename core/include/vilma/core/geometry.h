@@ -36,6 +36,16 @@ class Transformation {
   // From a homogeneous 4x4 matrix; the rotation block must be orthonormal (not checked here,
   // see IsRotationMatrix for input validation).
   explicit Transformation(const Eigen::Matrix4d& T_A_B);
+  // Takes q_A_B as given, without re-normalizing: for deserializing a Transformation that was
+  // normalized when it was made, so that save/load round trips are bit-exact (normalizing an
+  // already unit quaternion again changes its last bits about a third of the time).
+  static Transformation FromUnitQuaternion(const Eigen::Quaterniond& q_A_B,
+                                           const Eigen::Vector3d& p_A_B) {
+    Transformation T;
+    T.q_ = q_A_B;
+    T.p_ = p_A_B;
+    return T;
+  }
 
   const Eigen::Quaterniond& rotation() const { return q_; }
   const Eigen::Vector3d& translation() const { return p_; }
