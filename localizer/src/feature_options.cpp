@@ -1,0 +1,199 @@
+#include "vilma/localizer/feature_options.h"
+
+#include <charconv>
+#include <cmath>
+#include <sstream>
+#include <type_traits>
+
+#include "vilma/core/error.h"
+
+namespace vilma::localizer {
+namespace {
+
+#define VILMA_RETURN_IF_ERROR(expr)     \
+  do {                                  \
+    const std::string _error = (expr);  \
+    if (!_error.empty()) return _error; \
+  } while (false)
+
+std::string AtLeast(const char* field, double value, double minimum) {
+  if (!(std::isfinite(value) && value >= minimum)) {
+    std::ostringstream s;
+    s << field << ": expected >= " << minimum;
+    return s.str();
+  }
+  return "";
+}
+std::string Positive(const char* field, double value) {
+  if (!(std::isfinite(value) && value > 0.0)) return std::string(field) + ": expected > 0";
+  return "";
+}
+
+// One list of every option: reader and writer stay in sync. v(section, key, field&).
+template <typename Options, typename Visitor>
+void VisitOptions(Options& o, Visitor&& v) {
+  v("detector", "type", o.detector.type);
+  v("detector", "fast_threshold", o.detector.fast_threshold);
+  v("detector", "num_levels", o.detector.num_levels);
+  v("detector", "scale_factor", o.detector.scale_factor);
+  v("detector", "grid_cols", o.detector.grid_cols);
+  v("detector", "grid_rows", o.detector.grid_rows);
+  v("detector", "max_per_cell", o.detector.max_per_cell);
+  v("detector", "max_keypoints", o.detector.max_keypoints);
+  v("detector", "min_distance_px", o.detector.min_distance_px);
+  v("detector", "border_px", o.detector.border_px);
+  v("descriptor", "type", o.descriptor.type);
+  v("descriptor", "keypoint_size_px", o.descriptor.keypoint_size_px);
+  v("descriptor", "scale_with_level", o.descriptor.scale_with_level);
+  v("matcher", "window_radius_px", o.matcher.window_radius_px);
+  v("matcher", "max_hamming_distance", o.matcher.max_hamming_distance);
+  v("matcher", "ratio", o.matcher.ratio);
+  v("matcher", "mutual", o.matcher.mutual);
+  v("ransac", "method", o.ransac.method);
+  v("ransac", "threshold_px", o.ransac.threshold_px);
+  v("ransac", "max_iterations", o.ransac.max_iterations);
+  v("ransac", "confidence", o.ransac.confidence);
+  v("ransac", "min_matches", o.ransac.min_matches);
+  v("ransac", "rotation_only_margin", o.ransac.rotation_only_margin);
+  v("ransac", "min_translation_support", o.ransac.min_translation_support);
+  v("ransac", "seed", o.ransac.seed);
+}
+
+const char* kSections[] = {"detector", "descriptor", "matcher", "ransac"};
+
+}  // namespace
+
+std::string DetectorOptions::Validate() const {
+  if (type != "fast" && type != "orb") return "type: expected \"fast\" or \"orb\"";
+  if (fast_threshold < 1 || fast_threshold > 254) {
+    return "fast_threshold: expected 1..254";
+  }
+  if (num_levels < 1 || num_levels > 8) return "num_levels: expected 1..8";
+  if (!(std::isfinite(scale_factor) && scale_factor > 1.0 && scale_factor <= 2.0)) {
+    return "scale_factor: expected in (1, 2]";
+  }
+  VILMA_RETURN_IF_ERROR(AtLeast("grid_cols", grid_cols, 1));
+  VILMA_RETURN_IF_ERROR(AtLeast("grid_rows", grid_rows, 1));
+  VILMA_RETURN_IF_ERROR(AtLeast("max_per_cell", max_per_cell, 1));
+  VILMA_RETURN_IF_ERROR(AtLeast("max_keypoints", max_keypoints, 1));
+  VILMA_RETURN_IF_ERROR(AtLeast("min_distance_px", min_distance_px, 0.0));
+  if (min_distance_px > 100.0) return "min_distance_px: expected <= 100";
+  VILMA_RETURN_IF_ERROR(AtLeast("border_px", border_px, 0));
+  return "";
+}
+
+std::string DescriptorOptions::Validate() const {
+  if (type != "brisk") return "type: expected \"brisk\" (the only type available)";
+  if (!(std::isfinite(keypoint_size_px) && keypoint_size_px >= 4.0 &&
+        keypoint_size_px <= 64.0)) {
+    return "keypoint_size_px: expected in [4, 64]";
+  }
+  return "";
+}
+
+std::string MatcherOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(Positive("window_radius_px", window_radius_px));
+  if (window_radius_px > 500.0) return "window_radius_px: expected <= 500";
+  if (max_hamming_distance < 0 || max_hamming_distance > 512) {
+    return "max_hamming_distance: expected 0..512";
+  }
+  if (!(std::isfinite(ratio) && ratio > 0.0 && ratio <= 1.0)) return "ratio: expected in (0, 1]";
+  return "";
+}
+
+std::string RansacOptions::Validate() const {
+  if (method != "two_point" && method != "none") {
+    return "method: expected \"two_point\" or \"none\"";
+  }
+  VILMA_RETURN_IF_ERROR(Positive("threshold_px", threshold_px));
+  VILMA_RETURN_IF_ERROR(AtLeast("max_iterations", max_iterations, 1));
+  if (!(std::isfinite(confidence) && confidence > 0.0 && confidence < 1.0)) {
+    return "confidence: expected in (0, 1)";
+  }
+  VILMA_RETURN_IF_ERROR(AtLeast("min_matches", min_matches, 2));
+  if (!(std::isfinite(rotation_only_margin) && rotation_only_margin >= 0.0 &&
+        rotation_only_margin < 1.0)) {
+    return "rotation_only_margin: expected in [0, 1)";
+  }
+  if (!(std::isfinite(min_translation_support) && min_translation_support >= 0.0 &&
+        min_translation_support <= 1.0)) {
+    return "min_translation_support: expected in [0, 1]";
+  }
+  VILMA_RETURN_IF_ERROR(AtLeast("seed", seed, 0));
+  return "";
+}
+
+std::string KeyframeFeatureOptions::Validate() const {
+  std::string e;
+  if (!(e = detector.Validate()).empty()) return "detector." + e;
+  if (!(e = descriptor.Validate()).empty()) return "descriptor." + e;
+  if (!(e = matcher.Validate()).empty()) return "matcher." + e;
+  if (!(e = ransac.Validate()).empty()) return "ransac." + e;
+  return "";
+}
+
+KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& root) {
+  if (!root.IsMap()) root.Fail("", "a map of keyframe feature options");
+  KeyframeFeatureOptions options;
+  std::vector<YamlNode> sections;
+  for (const char* name : kSections) {
+    YamlNode child = root.Child(name);
+    if (!child.IsMap()) root.Fail(name, "a map");
+    sections.push_back(child);
+  }
+  VisitOptions(options, [&](const char* section, const char* key, auto& field) {
+    using T = std::decay_t<decltype(field)>;
+    for (std::size_t i = 0; i < sections.size(); ++i) {
+      if (std::string(kSections[i]) == section) field = sections[i].Get<T>(key);
+    }
+  });
+  root.CheckNoUnknownKeys();
+  for (const auto& s : sections) s.CheckNoUnknownKeys();
+  const std::string error = options.Validate();
+  if (!error.empty()) {
+    const std::size_t colon = error.find(": ");
+    const std::string field = error.substr(0, colon);
+    const std::string path = root.key_path().empty() ? field : root.key_path() + "." + field;
+    throw InputError(FormatInputError(root.file(), path, error.substr(colon + 2)));
+  }
+  return options;
+}
+
+KeyframeFeatureOptions ParseKeyframeFeatureOptions(const std::string& yaml_text,
+                                                   const std::string& source_name) {
+  return ReadKeyframeFeatureOptions(YamlNode::LoadString(yaml_text, source_name));
+}
+
+KeyframeFeatureOptions LoadKeyframeFeatureOptions(const std::string& path) {
+  return ReadKeyframeFeatureOptions(YamlNode::LoadFile(path));
+}
+
+std::string KeyframeFeatureOptionsToYaml(const KeyframeFeatureOptions& options) {
+  std::ostringstream out;
+  std::string current;
+  KeyframeFeatureOptions copy = options;
+  VisitOptions(copy, [&](const char* section, const char* key, auto& field) {
+    if (current != section) {
+      current = section;
+      out << section << ":\n";
+    }
+    out << "  " << key << ": ";
+    using T = std::decay_t<decltype(field)>;
+    if constexpr (std::is_same_v<T, bool>) {
+      out << (field ? "true" : "false");
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      out << '"' << field << '"';
+    } else if constexpr (std::is_same_v<T, double>) {
+      // Shortest text that reads back to the same double.
+      char buffer[64];
+      const auto r = std::to_chars(buffer, buffer + sizeof(buffer), field);
+      out << std::string(buffer, r.ptr);
+    } else {
+      out << field;
+    }
+    out << "\n";
+  });
+  return out.str();
+}
+
+}  // namespace vilma::localizer
