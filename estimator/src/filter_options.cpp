@@ -8,26 +8,10 @@
 #include <utility>
 #include <vector>
 
+#include "vilma/core/validate.h"
+
 namespace vilma::estimator {
 namespace {
-
-std::string Positive(const char* field, double value) {
-  if (!(std::isfinite(value) && value > 0.0)) return std::string(field) + ": expected > 0";
-  return "";
-}
-std::string NonNegative(const char* field, double value) {
-  if (!(std::isfinite(value) && value >= 0.0)) return std::string(field) + ": expected >= 0";
-  return "";
-}
-std::string AtLeast(const char* field, int value, int minimum) {
-  if (value < minimum) return std::string(field) + ": expected >= " + std::to_string(minimum);
-  return "";
-}
-#define VILMA_RETURN_IF_ERROR(expr)     \
-  do {                                  \
-    const std::string _error = (expr);  \
-    if (!_error.empty()) return _error; \
-  } while (false)
 
 // One list of every option: the reader, the writer and the documentation stay in sync. `v` is
 // called as v(section, key, field&).
@@ -94,56 +78,56 @@ void VisitOptions(Options& o, Visitor&& v) {
 }  // namespace
 
 std::string InitOptions::Validate() const {
-  VILMA_RETURN_IF_ERROR(Positive("window_s", window_s));
-  VILMA_RETURN_IF_ERROR(Positive("max_static_accel_std", max_static_accel_std));
-  VILMA_RETURN_IF_ERROR(Positive("max_static_gyro_std", max_static_gyro_std));
-  VILMA_RETURN_IF_ERROR(Positive("max_gravity_error", max_gravity_error));
-  VILMA_RETURN_IF_ERROR(Positive("sigma_velocity_static", sigma_velocity_static));
-  VILMA_RETURN_IF_ERROR(Positive("sigma_velocity_moving", sigma_velocity_moving));
-  VILMA_RETURN_IF_ERROR(Positive("sigma_roll_pitch", sigma_roll_pitch));
-  VILMA_RETURN_IF_ERROR(Positive("sigma_yaw", sigma_yaw));
-  VILMA_RETURN_IF_ERROR(Positive("sigma_gyro_bias", sigma_gyro_bias));
-  VILMA_RETURN_IF_ERROR(Positive("sigma_accel_bias", sigma_accel_bias));
-  VILMA_RETURN_IF_ERROR(NonNegative("sigma_extrinsic_rotation", sigma_extrinsic_rotation));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("window_s", window_s));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_static_accel_std", max_static_accel_std));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_static_gyro_std", max_static_gyro_std));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_gravity_error", max_gravity_error));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("sigma_velocity_static", sigma_velocity_static));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("sigma_velocity_moving", sigma_velocity_moving));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("sigma_roll_pitch", sigma_roll_pitch));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("sigma_yaw", sigma_yaw));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("sigma_gyro_bias", sigma_gyro_bias));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("sigma_accel_bias", sigma_accel_bias));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("sigma_extrinsic_rotation", sigma_extrinsic_rotation));
   VILMA_RETURN_IF_ERROR(
-      NonNegative("sigma_extrinsic_translation", sigma_extrinsic_translation));
-  VILMA_RETURN_IF_ERROR(NonNegative("sigma_time_offset", sigma_time_offset));
+      ValidateNonNegative("sigma_extrinsic_translation", sigma_extrinsic_translation));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("sigma_time_offset", sigma_time_offset));
   return "";
 }
 
 std::string ProcessNoiseOptions::Validate() const {
-  VILMA_RETURN_IF_ERROR(NonNegative("bearing", bearing));
-  VILMA_RETURN_IF_ERROR(NonNegative("inverse_depth", inverse_depth));
-  VILMA_RETURN_IF_ERROR(NonNegative("extrinsic_rotation", extrinsic_rotation));
-  VILMA_RETURN_IF_ERROR(NonNegative("extrinsic_translation", extrinsic_translation));
-  VILMA_RETURN_IF_ERROR(NonNegative("time_offset", time_offset));
-  VILMA_RETURN_IF_ERROR(Positive("imu_noise_scale", imu_noise_scale));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("bearing", bearing));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("inverse_depth", inverse_depth));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("extrinsic_rotation", extrinsic_rotation));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("extrinsic_translation", extrinsic_translation));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("time_offset", time_offset));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("imu_noise_scale", imu_noise_scale));
   return "";
 }
 
 std::string UpdateOptions::Validate() const {
-  VILMA_RETURN_IF_ERROR(AtLeast("max_iterations", max_iterations, 1));
-  VILMA_RETURN_IF_ERROR(Positive("convergence_px", convergence_px));
-  VILMA_RETURN_IF_ERROR(Positive("intensity_sigma", intensity_sigma));
-  VILMA_RETURN_IF_ERROR(NonNegative("pixel_sigma", pixel_sigma));
-  VILMA_RETURN_IF_ERROR(Positive("huber_threshold", huber_threshold));
-  VILMA_RETURN_IF_ERROR(Positive("mahalanobis_threshold", mahalanobis_threshold));
-  VILMA_RETURN_IF_ERROR(Positive("max_mean_abs_error", max_mean_abs_error));
-  VILMA_RETURN_IF_ERROR(AtLeast("align_iterations", align_iterations, 1));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_iterations", max_iterations, 1));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("convergence_px", convergence_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("intensity_sigma", intensity_sigma));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("pixel_sigma", pixel_sigma));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("huber_threshold", huber_threshold));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("mahalanobis_threshold", mahalanobis_threshold));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_mean_abs_error", max_mean_abs_error));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("align_iterations", align_iterations, 1));
   return "";
 }
 
 std::string FeatureOptions::Validate() const {
-  VILMA_RETURN_IF_ERROR(AtLeast("max_features", max_features, 1));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_features", max_features, 1));
   if (max_features > 1000) return "max_features: expected <= 1000";
-  VILMA_RETURN_IF_ERROR(Positive("init_inverse_depth", init_inverse_depth));
-  VILMA_RETURN_IF_ERROR(Positive("init_inverse_depth_sigma", init_inverse_depth_sigma));
-  VILMA_RETURN_IF_ERROR(Positive("init_bearing_sigma_px", init_bearing_sigma_px));
-  VILMA_RETURN_IF_ERROR(AtLeast("max_failures", max_failures, 1));
-  VILMA_RETURN_IF_ERROR(NonNegative("min_shi_tomasi", min_shi_tomasi));
-  VILMA_RETURN_IF_ERROR(AtLeast("detect_below", detect_below, 0));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("init_inverse_depth", init_inverse_depth));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("init_inverse_depth_sigma", init_inverse_depth_sigma));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("init_bearing_sigma_px", init_bearing_sigma_px));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_failures", max_failures, 1));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("min_shi_tomasi", min_shi_tomasi));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("detect_below", detect_below, 0));
   if (detect_below > max_features) return "detect_below: expected <= max_features";
-  VILMA_RETURN_IF_ERROR(NonNegative("min_inverse_depth", min_inverse_depth));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("min_inverse_depth", min_inverse_depth));
   if (patch.patch_size < 2) return "patch.patch_size: expected >= 2";
   if (patch.num_levels < 1) return "patch.num_levels: expected >= 1";
   if (photometric.min_level < 0 || photometric.min_level > photometric.max_level) {
@@ -169,9 +153,9 @@ std::string FeatureOptions::Validate() const {
 }
 
 std::string HealthOptions::Validate() const {
-  VILMA_RETURN_IF_ERROR(Positive("max_speed", max_speed));
-  VILMA_RETURN_IF_ERROR(Positive("max_position_sigma", max_position_sigma));
-  VILMA_RETURN_IF_ERROR(AtLeast("max_frames_without_features", max_frames_without_features, 1));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_speed", max_speed));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_position_sigma", max_position_sigma));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_frames_without_features", max_frames_without_features, 1));
   return "";
 }
 

@@ -6,28 +6,10 @@
 #include <type_traits>
 
 #include "vilma/core/error.h"
+#include "vilma/core/validate.h"
 
 namespace vilma::localizer {
 namespace {
-
-#define VILMA_RETURN_IF_ERROR(expr)     \
-  do {                                  \
-    const std::string _error = (expr);  \
-    if (!_error.empty()) return _error; \
-  } while (false)
-
-std::string AtLeast(const char* field, double value, double minimum) {
-  if (!(std::isfinite(value) && value >= minimum)) {
-    std::ostringstream s;
-    s << field << ": expected >= " << minimum;
-    return s.str();
-  }
-  return "";
-}
-std::string Positive(const char* field, double value) {
-  if (!(std::isfinite(value) && value > 0.0)) return std::string(field) + ": expected > 0";
-  return "";
-}
 
 // One list of every option: reader and writer stay in sync. v(section, key, field&).
 template <typename Options, typename Visitor>
@@ -72,13 +54,13 @@ std::string DetectorOptions::Validate() const {
   if (!(std::isfinite(scale_factor) && scale_factor > 1.0 && scale_factor <= 2.0)) {
     return "scale_factor: expected in (1, 2]";
   }
-  VILMA_RETURN_IF_ERROR(AtLeast("grid_cols", grid_cols, 1));
-  VILMA_RETURN_IF_ERROR(AtLeast("grid_rows", grid_rows, 1));
-  VILMA_RETURN_IF_ERROR(AtLeast("max_per_cell", max_per_cell, 1));
-  VILMA_RETURN_IF_ERROR(AtLeast("max_keypoints", max_keypoints, 1));
-  VILMA_RETURN_IF_ERROR(AtLeast("min_distance_px", min_distance_px, 0.0));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("grid_cols", grid_cols, 1));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("grid_rows", grid_rows, 1));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_per_cell", max_per_cell, 1));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_keypoints", max_keypoints, 1));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("min_distance_px", min_distance_px, 0.0));
   if (min_distance_px > 100.0) return "min_distance_px: expected <= 100";
-  VILMA_RETURN_IF_ERROR(AtLeast("border_px", border_px, 0));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("border_px", border_px, 0));
   return "";
 }
 
@@ -92,7 +74,7 @@ std::string DescriptorOptions::Validate() const {
 }
 
 std::string MatcherOptions::Validate() const {
-  VILMA_RETURN_IF_ERROR(Positive("window_radius_px", window_radius_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("window_radius_px", window_radius_px));
   if (window_radius_px > 500.0) return "window_radius_px: expected <= 500";
   if (max_hamming_distance < 0 || max_hamming_distance > 512) {
     return "max_hamming_distance: expected 0..512";
@@ -105,12 +87,12 @@ std::string RansacOptions::Validate() const {
   if (method != "two_point" && method != "none") {
     return "method: expected \"two_point\" or \"none\"";
   }
-  VILMA_RETURN_IF_ERROR(Positive("threshold_px", threshold_px));
-  VILMA_RETURN_IF_ERROR(AtLeast("max_iterations", max_iterations, 1));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("threshold_px", threshold_px));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_iterations", max_iterations, 1));
   if (!(std::isfinite(confidence) && confidence > 0.0 && confidence < 1.0)) {
     return "confidence: expected in (0, 1)";
   }
-  VILMA_RETURN_IF_ERROR(AtLeast("min_matches", min_matches, 2));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("min_matches", min_matches, 2));
   if (!(std::isfinite(rotation_only_margin) && rotation_only_margin >= 0.0 &&
         rotation_only_margin < 1.0)) {
     return "rotation_only_margin: expected in [0, 1)";
@@ -119,7 +101,7 @@ std::string RansacOptions::Validate() const {
         min_translation_support <= 1.0)) {
     return "min_translation_support: expected in [0, 1]";
   }
-  VILMA_RETURN_IF_ERROR(AtLeast("seed", seed, 0));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("seed", seed, 0));
   return "";
 }
 
