@@ -73,19 +73,6 @@ std::string WithDefaultRecvBufSize(const std::string& url, int64_t bytes) {
   return WithLcmUrlParameter(url, "recv_buf_size", std::to_string(bytes));
 }
 
-std::string ValidateChannelName(const std::string& name) {
-  if (name.empty()) return "channel name is empty";
-  if (name.size() > 63) return "channel name '" + name + "' is longer than 63 characters";
-  for (char c : name) {
-    const bool ok = (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
-    if (!ok) {
-      return "channel name '" + name + "' has '" + std::string(1, c) +
-             "': expected upper-case letters, digits and '_' only";
-    }
-  }
-  return "";
-}
-
 std::string ChannelName(const std::string& base, const std::string& suffix) {
   return base + suffix;
 }

@@ -27,6 +27,21 @@ inline std::string ValidateAtLeast(const char* field, double value, double minim
   return "";
 }
 
+// LCM channel names (architecture.md section 2): upper case, digits and '_', no regex
+// metacharacters, at most 63 characters. Returns "" or what is wrong with `name`.
+inline std::string ValidateChannelName(const std::string& name) {
+  if (name.empty()) return "channel name is empty";
+  if (name.size() > 63) return "channel name '" + name + "' is longer than 63 characters";
+  for (char c : name) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+    if (!ok) {
+      return "channel name '" + name + "' has '" + std::string(1, c) +
+             "': expected upper-case letters, digits and '_' only";
+    }
+  }
+  return "";
+}
+
 }  // namespace vilma
 
 // Returns the message of the first failing check from the enclosing Validate().

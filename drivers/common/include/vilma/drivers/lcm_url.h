@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <string>
 
+#include "vilma/core/validate.h"
+
 namespace vilma {
 
 // LCM's own default, confined to this host.
@@ -35,10 +37,8 @@ std::string WithLcmUrlParameter(const std::string& url, const std::string& key,
 std::string WithDefaultRecvBufSize(const std::string& url,
                                    int64_t bytes = kRecommendedRecvBufSize);
 
-// Empty if `name` is a valid vilma channel name: non-empty, at most 63 characters of
-// [A-Z0-9_]; else what is wrong (channel names are matched as regular expressions by LCM
-// subscribers, so metacharacters are refused).
-std::string ValidateChannelName(const std::string& name);
+// ValidateChannelName (core/validate.h): channel names are matched as regular expressions by
+// LCM subscribers, so only [A-Z0-9_] is accepted.
 
 // `base` + `suffix` (e.g. "CAM0" + "_R2" -> "CAM0_R2"): several robots or a replay can share
 // one network by giving each a suffix.

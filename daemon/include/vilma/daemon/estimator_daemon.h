@@ -1,0 +1,57 @@
+// vilma-estimatord's pipeline (architecture.md section 3, docs/daemon.md):
+//
+//   input thread --[spsc]--> sync thread --[spsc]--> filter thread --[spsc]--> publisher thread
+//   (LCM handlers                (SensorSynchronizer)    (VioFilter)             (VILMA_ODOM,
+//    or an LCM log file)                                                          VILMA_STATUS)
+//
+// Each stage owns its state; data moves through bounded lock-free single-producer
+// single-consumer rings (boost::lockfree::spsc_queue); images are decoded into a pool of
+// preallocated slots (ImagePool). No mutex on the per-frame path. A consumer with nothing to do
+// sleeps on a semaphore that its producer posts.
+//
+// Live (LCM) input: IMU samples are never dropped on purpose (a full queue drops and counts
+// them: a bug to be reported); frames are thinned when the filter is behind; every drop is
+// counted and published on VILMA_STATUS. Log input (--input-log): no pacing and blocking
+// backpressure instead of drops, so the output is the same on every run.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "vilma/core/rig.h"
+#include "vilma/daemon/daemon_options.h"
+
+namespace vilma::daemon {
+
+struct DaemonSummary {
+  int64_t frames_filtered = 0;
+  int64_t poses_published = 0;
+  int64_t malformed_messages = 0;
+  int64_t drops = 0;  // every message or frame dropped by the daemon (not the synchronizer)
+  std::string report;  // the final counters, one "name value" per line
+};
+
+class EstimatorDaemon {
+ public:
+  // Opens LCM (or the input log) and subscribes. Throws InputError for a bad rig / camera
+  // combination, an LCM URL that does not open, or an unreadable log.
+  EstimatorDaemon(const DaemonOptions& options, const SensorRig& rig);
+  ~EstimatorDaemon();
+  EstimatorDaemon(const EstimatorDaemon&) = delete;
+  EstimatorDaemon& operator=(const EstimatorDaemon&) = delete;
+
+  // Runs the pipeline until RequestStop() or, with an input log, the end of the log; then
+  // flushes every stage, publishes a last status (STOPPING) and returns. Messages about bad
+  // input and faults (rate limited) go to stderr, one line each. Call once.
+  DaemonSummary Run();
+
+  // Thread-safe and async-signal-safe (one atomic store).
+  void RequestStop();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace vilma::daemon

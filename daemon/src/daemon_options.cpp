@@ -1,0 +1,187 @@
+#include "vilma/daemon/daemon_options.h"
+
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+
+#include "vilma/core/error.h"
+#include "vilma/core/validate.h"
+
+namespace vilma::daemon {
+namespace {
+
+std::string CheckChannel(const std::string& field, const std::string& name, bool allow_empty) {
+  if (name.empty()) return allow_empty ? "" : field + ": expected a channel name";
+  const std::string problem = ValidateChannelName(name);
+  return problem.empty() ? "" : field + ": " + problem;
+}
+
+std::string Resolve(const std::string& config_file, const std::string& path) {
+  if (path.empty() || std::filesystem::path(path).is_absolute()) return path;
+  const std::filesystem::path dir = std::filesystem::path(config_file).parent_path();
+  return dir.empty() ? path : (dir / path).string();
+}
+
+}  // namespace
+
+std::string ChannelOptions::Validate() const {
+  if (cameras.empty()) return "channels.cameras: expected at least one camera channel";
+  for (std::size_t i = 0; i < cameras.size(); ++i) {
+    VILMA_RETURN_IF_ERROR(
+        CheckChannel("channels.cameras[" + std::to_string(i) + "]", cameras[i], false));
+  }
+  VILMA_RETURN_IF_ERROR(CheckChannel("channels.imu", imu, false));
+  VILMA_RETURN_IF_ERROR(CheckChannel("channels.odometry", odometry, false));
+  VILMA_RETURN_IF_ERROR(CheckChannel("channels.pose", pose, false));
+  VILMA_RETURN_IF_ERROR(CheckChannel("channels.status", status, false));
+  return "";
+}
+
+std::string QueueOptions::Validate() const {
+  if (input_capacity < 16) return "queues.input_capacity: expected >= 16";
+  if (filter_capacity < 16) return "queues.filter_capacity: expected >= 16";
+  if (output_capacity < 4) return "queues.output_capacity: expected >= 4";
+  if (image_pool_slots < 2) return "queues.image_pool_slots: expected >= 2";
+  if (max_frames_in_flight < 1) return "queues.max_frames_in_flight: expected >= 1";
+  return "";
+}
+
+std::string DaemonOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(CheckChannel("channel_suffix", channel_suffix, true));
+  if (vio_camera < 0) return "vio_camera: expected >= 0";
+  if (vio_camera >= static_cast<int>(channels.cameras.size())) {
+    return "vio_camera: expected an index into channels.cameras";
+  }
+  if (!(std::isfinite(status_period_s) && status_period_s >= 0.05 && status_period_s <= 60.0)) {
+    return "status_period_s: expected 0.05 .. 60";
+  }
+  if (!(std::isfinite(camera_silence_s) && camera_silence_s > 0.0)) {
+    return "camera_silence_s: expected > 0";
+  }
+  VILMA_RETURN_IF_ERROR(channels.Validate());
+  VILMA_RETURN_IF_ERROR(queues.Validate());
+  const std::string sync_error = sync.Validate();
+  if (!sync_error.empty()) return "sync." + sync_error;
+  VILMA_RETURN_IF_ERROR(estimator.Validate());
+  return "";
+}
+
+DaemonOptions ReadDaemonOptions(const YamlNode& root) {
+  if (!root.IsMap()) root.Fail("", "a map of daemon options");
+  DaemonOptions o;
+  o.rig = Resolve(root.file(), root.Get<std::string>("rig"));
+  o.lcm_url = root.Get<std::string>("lcm_url");
+  o.channel_suffix = root.Get<std::string>("channel_suffix");
+  o.vio_camera = root.Get<int>("vio_camera");
+  o.status_period_s = root.Get<double>("status_period_s");
+  o.camera_silence_s = root.Get<double>("camera_silence_s");
+
+  // estimator: a file name ("" = defaults) or the options inline.
+  const YAML::Node estimator = root.raw()["estimator"];
+  if (estimator.IsDefined() && estimator.IsMap()) {
+    o.estimator = estimator::ReadFilterOptions(root.Child("estimator"));
+  } else {
+    o.estimator_file = Resolve(root.file(), root.Get<std::string>("estimator"));
+    if (!o.estimator_file.empty()) o.estimator = estimator::LoadFilterOptions(o.estimator_file);
+  }
+
+  const YamlNode channels = root.Child("channels");
+  if (!channels.IsMap()) root.Fail("channels", "a map");
+  const YamlNode cameras = channels.Child("cameras");
+  if (!cameras.IsSequence()) channels.Fail("cameras", "a list of channel names");
+  o.channels.cameras.clear();
+  for (const YAML::Node& c : cameras.raw()) {
+    if (!c.IsScalar()) channels.Fail("cameras", "a list of channel names");
+    o.channels.cameras.push_back(c.Scalar());
+  }
+  o.channels.imu = channels.Get<std::string>("imu");
+  o.channels.odometry = channels.Get<std::string>("odometry");
+  o.channels.pose = channels.Get<std::string>("pose");
+  o.channels.status = channels.Get<std::string>("status");
+  channels.CheckNoUnknownKeys();
+
+  const YamlNode queues = root.Child("queues");
+  if (!queues.IsMap()) root.Fail("queues", "a map");
+  o.queues.input_capacity = queues.Get<int>("input_capacity");
+  o.queues.filter_capacity = queues.Get<int>("filter_capacity");
+  o.queues.output_capacity = queues.Get<int>("output_capacity");
+  o.queues.image_pool_slots = queues.Get<int>("image_pool_slots");
+  o.queues.max_frames_in_flight = queues.Get<int>("max_frames_in_flight");
+  queues.CheckNoUnknownKeys();
+
+  const YamlNode sync = root.Child("sync");
+  if (!sync.IsMap()) root.Fail("sync", "a map");
+  o.sync.frame_grouping_tolerance_ns = sync.Get<int64_t>("frame_grouping_tolerance_ns");
+  o.sync.incomplete_frame_timeout_ns = sync.Get<int64_t>("incomplete_frame_timeout_ns");
+  o.sync.max_imu_wait_ns = sync.Get<int64_t>("max_imu_wait_ns");
+  o.sync.imu_gap_threshold_ns = sync.Get<int64_t>("imu_gap_threshold_ns");
+  o.sync.time_jump_threshold_ns = sync.Get<int64_t>("time_jump_threshold_ns");
+  o.sync.max_pending_frames = sync.Get<int>("max_pending_frames");
+  sync.CheckNoUnknownKeys();
+
+  root.CheckNoUnknownKeys();
+  const std::string error = o.Validate();
+  if (!error.empty()) {
+    const std::size_t colon = error.find(": ");
+    throw InputError(FormatInputError(root.file(), error.substr(0, colon), error.substr(colon + 2)));
+  }
+  return o;
+}
+
+DaemonOptions ParseDaemonOptions(const std::string& yaml_text, const std::string& source_name) {
+  return ReadDaemonOptions(YamlNode::LoadString(yaml_text, source_name));
+}
+
+DaemonOptions LoadDaemonOptions(const std::string& path) {
+  return ReadDaemonOptions(YamlNode::LoadFile(path));
+}
+
+namespace {
+std::string Quote(const std::string& s) { return "\"" + s + "\""; }
+std::string Indent(const std::string& text, const std::string& prefix) {
+  std::istringstream in(text);
+  std::ostringstream out;
+  std::string line;
+  while (std::getline(in, line)) out << prefix << line << "\n";
+  return out.str();
+}
+}  // namespace
+
+std::string DaemonOptionsToYaml(const DaemonOptions& o) {
+  std::ostringstream out;
+  out.precision(17);
+  out << "rig: " << Quote(o.rig) << "\n"
+      << "lcm_url: " << Quote(o.lcm_url) << "\n"
+      << "channel_suffix: " << Quote(o.channel_suffix) << "\n"
+      << "vio_camera: " << o.vio_camera << "\n"
+      << "status_period_s: " << o.status_period_s << "\n"
+      << "camera_silence_s: " << o.camera_silence_s << "\n"
+      << "channels:\n  cameras: [";
+  for (std::size_t i = 0; i < o.channels.cameras.size(); ++i) {
+    out << (i ? ", " : "") << o.channels.cameras[i];
+  }
+  out << "]\n"
+      << "  imu: " << o.channels.imu << "\n"
+      << "  odometry: " << o.channels.odometry << "\n"
+      << "  pose: " << o.channels.pose << "\n"
+      << "  status: " << o.channels.status << "\n"
+      << "queues:\n"
+      << "  input_capacity: " << o.queues.input_capacity << "\n"
+      << "  filter_capacity: " << o.queues.filter_capacity << "\n"
+      << "  output_capacity: " << o.queues.output_capacity << "\n"
+      << "  image_pool_slots: " << o.queues.image_pool_slots << "\n"
+      << "  max_frames_in_flight: " << o.queues.max_frames_in_flight << "\n"
+      << "sync:\n"
+      << "  frame_grouping_tolerance_ns: " << o.sync.frame_grouping_tolerance_ns << "\n"
+      << "  incomplete_frame_timeout_ns: " << o.sync.incomplete_frame_timeout_ns << "\n"
+      << "  max_imu_wait_ns: " << o.sync.max_imu_wait_ns << "\n"
+      << "  imu_gap_threshold_ns: " << o.sync.imu_gap_threshold_ns << "\n"
+      << "  time_jump_threshold_ns: " << o.sync.time_jump_threshold_ns << "\n"
+      << "  max_pending_frames: " << o.sync.max_pending_frames << "\n"
+      << "# estimator options" << (o.estimator_file.empty() ? " (built-in defaults)" : " from " + o.estimator_file) << "\n"
+      << "estimator:\n"
+      << Indent(estimator::FilterOptionsToYaml(o.estimator), "  ");
+  return out.str();
+}
+
+}  // namespace vilma::daemon

@@ -1,0 +1,906 @@
+#include "vilma/daemon/estimator_daemon.h"
+
+#include <semaphore.h>
+#include <sys/resource.h>
+
+#include <array>
+#include <atomic>
+#include <boost/lockfree/spsc_queue.hpp>
+#include <cerrno>
+#include <chrono>
+#include <cstdarg>
+#include <cstdio>
+#include <ctime>
+#include <limits>
+#include <lcm/lcm-cpp.hpp>
+#include <optional>
+#include <sstream>
+#include <thread>
+#include <vector>
+
+#include <vilma/pose_t.hpp>
+#include <vilma/status_t.hpp>
+
+#include "vilma/core/error.h"
+#include "vilma/core/sensor_sync.h"
+#include "vilma/core/time.h"
+#include "vilma/daemon/image_pool.h"
+#include "vilma/daemon/latency_window.h"
+#include "vilma/daemon/systemd_notify.h"
+#include "vilma/drivers/lcm_convert.h"
+#include "vilma/drivers/lcm_log.h"
+#include "vilma/drivers/lcm_url.h"
+#include "vilma/estimator/filter_state.h"
+#include "vilma/estimator/vio_filter.h"
+
+namespace vilma::daemon {
+namespace {
+
+constexpr int64_t kMs = 1000000;  // [ns]
+
+int64_t SteadyNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+int64_t WallUs() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// Wakes a consumer that waits for its queue. A POSIX semaphore is a futex: sem_post makes a
+// system call only when a thread sleeps on it, and there is no mutex. The count is kept at
+// most 1 (a lost race only causes one spurious wake-up).
+class Wakeup {
+ public:
+  Wakeup() { sem_init(&sem_, 0, 0); }
+  ~Wakeup() { sem_destroy(&sem_); }
+  Wakeup(const Wakeup&) = delete;
+  Wakeup& operator=(const Wakeup&) = delete;
+  void Notify() {
+    int value = 0;
+    sem_getvalue(&sem_, &value);
+    if (value < 1) sem_post(&sem_);
+  }
+  void Wait(int64_t timeout_ns) {
+    timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    const int64_t ns = ts.tv_nsec + timeout_ns;
+    ts.tv_sec += static_cast<time_t>(ns / 1000000000);
+    ts.tv_nsec = static_cast<long>(ns % 1000000000);
+    while (sem_clockwait(&sem_, CLOCK_MONOTONIC, &ts) == -1 && errno == EINTR) {
+    }
+  }
+
+ private:
+  sem_t sem_;
+};
+
+// Counters shared between the stages: each is written by one thread (relaxed atomics) and read
+// by the publisher for VILMA_STATUS.
+enum Counter : int {
+  kImuReceived,
+  kImagesReceived,
+  kMalformedImu,
+  kMalformedImages,
+  kImagesWrongSize,
+  kImagesDroppedPool,
+  kImagesDroppedInputQueue,
+  kImuDroppedInputQueue,  // a bug: the input queue is sized for seconds of IMU
+  kImuDroppedFilterQueue,  // a bug as well
+  kFramesDroppedBusy,      // thinned: the filter was behind (max_frames_in_flight)
+  kFramesDroppedFilterQueue,
+  kFramesWithoutVioCamera,
+  kCameraSilences,
+  kTimeJumpRestarts,
+  kFramesFiltered,
+  kFilterResets,
+  kPosesPublished,
+  kPosesDroppedOutput,
+  kLcmErrors,
+  // SensorSyncCounters, copied by the sync thread.
+  kSyncImuReceived,
+  kSyncImuDuplicates,
+  kSyncImuOutOfOrder,
+  kSyncImuGaps,
+  kSyncImuTimeJumps,
+  kSyncImagesReceived,
+  kSyncImagesDuplicate,
+  kSyncImagesOutOfOrder,
+  kSyncImagesLate,
+  kSyncImageTimeJumps,
+  kSyncFramesReleased,
+  kSyncFramesIncomplete,
+  kSyncFramesDroppedNoImu,
+  kSyncFramesDroppedOverflow,
+  kNumCounters
+};
+
+constexpr std::array<const char*, kNumCounters> kCounterNames = {
+    "imu_received",
+    "images_received",
+    "malformed_imu",
+    "malformed_images",
+    "images_wrong_size",
+    "images_dropped_pool",
+    "images_dropped_input_queue",
+    "imu_dropped_input_queue",
+    "imu_dropped_filter_queue",
+    "frames_dropped_busy",
+    "frames_dropped_filter_queue",
+    "frames_without_vio_camera",
+    "camera_silences",
+    "time_jump_restarts",
+    "frames_filtered",
+    "filter_resets",
+    "poses_published",
+    "poses_dropped_output",
+    "lcm_errors",
+    "sync_imu_received",
+    "sync_imu_duplicates",
+    "sync_imu_out_of_order",
+    "sync_imu_gaps",
+    "sync_imu_time_jumps",
+    "sync_images_received",
+    "sync_images_duplicate",
+    "sync_images_out_of_order",
+    "sync_images_late",
+    "sync_image_time_jumps",
+    "sync_frames_released",
+    "sync_frames_incomplete",
+    "sync_frames_dropped_no_imu",
+    "sync_frames_dropped_overflow",
+};
+
+// Counters that are drops (summed into "drops").
+constexpr std::array<Counter, 8> kDropCounters = {
+    kImagesDroppedPool,     kImagesDroppedInputQueue, kImuDroppedInputQueue,
+    kImuDroppedFilterQueue, kFramesDroppedBusy,       kFramesDroppedFilterQueue,
+    kPosesDroppedOutput,    kSyncFramesDroppedOverflow};
+
+struct InputItem {
+  enum class Kind : uint8_t { kImu, kImage };
+  Kind kind = Kind::kImu;
+  int camera = 0;
+  ImuSample imu;
+  int64_t t_cam_ns = 0;         // image stamp, camera clock [ns]
+  int64_t recv_steady_ns = 0;   // when the input thread got it [steady ns]
+  int64_t recv_latency_us = 0;  // wall receive time - utime [us] (sensor clock = wall clock?)
+  cv::Mat image;                // GRAY8, in a pool slot
+};
+
+struct FilterItem {
+  enum class Kind : uint8_t { kImu, kFrame, kRestart };
+  Kind kind = Kind::kImu;
+  ImuSample imu;
+  int64_t t_cam_ns = 0;
+  int64_t recv_steady_ns = 0;
+  int64_t recv_latency_us = 0;
+  int64_t synced_steady_ns = 0;
+  cv::Mat image;
+};
+
+struct OutputItem {
+  int64_t t_ns = 0;  // state time, IMU clock [ns]
+  int32_t status = pose_t::INVALID;
+  double position[3] = {0, 0, 0};
+  double orientation[4] = {1, 0, 0, 0};
+  double velocity[3] = {0, 0, 0};
+  double angular_velocity[3] = {0, 0, 0};
+  double covariance[36] = {};
+  int32_t features = 0;
+  int64_t recv_steady_ns = 0;
+  int64_t recv_latency_us = 0;
+  int64_t synced_steady_ns = 0;
+  int64_t filter_start_ns = 0;
+  int64_t filtered_steady_ns = 0;
+};
+
+template <typename T>
+using Spsc = boost::lockfree::spsc_queue<T>;
+
+}  // namespace
+
+struct EstimatorDaemon::Impl {
+  Impl(const DaemonOptions& o, const SensorRig& r);
+
+  // ---- configuration ----
+  DaemonOptions options;
+  SensorRig rig;
+  bool log_mode = false;
+  int num_cameras = 0;
+  std::vector<std::string> camera_channels;
+  std::string imu_channel, odom_channel, status_channel;
+  std::vector<int64_t> camera_offsets_ns;
+
+  // ---- shared state ----
+  std::atomic<bool> stop{false};
+  std::atomic<bool> input_done{false}, sync_done{false}, filter_done{false};
+  std::atomic<int> frames_in_flight{0};
+  std::array<std::atomic<int64_t>, kNumCounters> counters{};
+  std::atomic<int> filter_state{pose_t::INITIALIZING};
+  std::atomic<int> features{0};
+  std::atomic<bool> filter_stalled{false};
+  std::atomic<int> input_depth_max{0}, filter_depth_max{0}, output_depth_max{0};
+  SystemdNotifier notifier;
+
+  // Declared before the queues and the synchronizer that hold its images: destroyed last.
+  std::unique_ptr<ImagePool> pool;
+  Spsc<InputItem> input_queue;
+  Spsc<FilterItem> filter_queue;
+  Spsc<OutputItem> output_queue;
+  Wakeup sync_wake, filter_wake, output_wake;
+  // Built in the constructor, so that bad options or rigs throw there (in the caller's thread);
+  // then owned by the sync and filter threads. Declared after the pool: destroyed before it.
+  std::unique_ptr<SensorSynchronizer> synchronizer;
+  std::unique_ptr<estimator::VioFilter> vio_filter;
+
+  // ---- input stage (input thread only) ----
+  std::unique_ptr<lcm::LCM> input_lcm;   // live mode
+  std::unique_ptr<LcmLogReader> reader;  // log mode
+  std::unique_ptr<lcm::LCM> output_lcm;  // log mode: a separate instance for output
+  lcm::LCM* publish_lcm = nullptr;
+  image_t image_msg;  // reused: its data vector keeps its capacity
+  imu_t imu_msg;
+  std::array<std::atomic<int64_t>, 16> last_log_ns{};  // per topic; topics are used by one thread each
+
+  void Count(Counter c, int64_t n = 1) { counters[c].fetch_add(n, std::memory_order_relaxed); }
+  int64_t Get(Counter c) const { return counters[c].load(std::memory_order_relaxed); }
+  // At most one line per second per topic on stderr (bad input must not flood the journal).
+  void LogLimited(int topic, const char* format, ...) __attribute__((format(printf, 3, 4)));
+
+  void OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  void Dispatch(const std::string& channel, const void* data, int size);
+  void HandleImu(const void* data, int size, int64_t recv_ns, int64_t recv_wall_us);
+  void HandleImage(int camera, const void* data, int size, int64_t recv_ns, int64_t recv_wall_us);
+  template <typename Queue, typename Item>
+  bool PushBlocking(Queue& queue, const Item& item);
+  void InputLoop();
+
+  // ---- sync stage ----
+  void SyncLoop();
+  void PushFilter(const FilterItem& item);
+
+  // ---- filter stage ----
+  void FilterLoop();
+
+  // ---- publisher ----
+  void PublishLoop();
+  void PublishStatus(int state, int64_t now_ns);
+  LatencyWindow lat_receive, lat_sync, lat_filter_wait, lat_filter, lat_publish, lat_total;
+  int64_t last_cpu_us = -1, last_cpu_wall_ns = 0;
+  double cpu_load = 0.0;
+  int64_t status_seq = 0;
+};
+
+EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
+    : options(o),
+      rig(r),
+      input_queue(static_cast<std::size_t>(o.queues.input_capacity)),
+      filter_queue(static_cast<std::size_t>(o.queues.filter_capacity)),
+      output_queue(static_cast<std::size_t>(o.queues.output_capacity)) {
+  const std::string error = options.Validate();
+  if (!error.empty()) throw InputError("daemon options: " + error);
+  log_mode = !options.input_log.empty();
+  num_cameras = std::min(static_cast<int>(rig.cameras.size()),
+                         static_cast<int>(options.channels.cameras.size()));
+  if (options.vio_camera >= num_cameras) {
+    throw InputError(FormatInputError("rig", "cameras[" + std::to_string(options.vio_camera) + "]",
+                                      "the camera given by vio_camera (the rig has " +
+                                          std::to_string(rig.cameras.size()) + ")"));
+  }
+  std::size_t slot_bytes = 0;
+  for (int i = 0; i < num_cameras; ++i) {
+    const Camera& c = rig.cameras[static_cast<std::size_t>(i)].camera;
+    slot_bytes = std::max(slot_bytes, static_cast<std::size_t>(c.width()) *
+                                          static_cast<std::size_t>(c.height()));
+    camera_channels.push_back(
+        ChannelName(options.channels.cameras[static_cast<std::size_t>(i)], options.channel_suffix));
+    camera_offsets_ns.push_back(rig.cameras[static_cast<std::size_t>(i)].time_offset_ns);
+  }
+  // Every slot the synchronizer and the queues can hold at once, plus margin: with fewer, the
+  // log mode's blocking input could wait for a slot that only newer input would free.
+  const int needed = num_cameras * (options.sync.max_pending_frames + 2) +
+                     options.queues.max_frames_in_flight + 2;
+  if (options.queues.image_pool_slots < needed) {
+    throw InputError(FormatInputError(
+        "daemon options", "queues.image_pool_slots",
+        ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2 = " +
+            std::to_string(needed)));
+  }
+  pool = std::make_unique<ImagePool>(options.queues.image_pool_slots, slot_bytes);
+  try {
+    synchronizer = std::make_unique<SensorSynchronizer>(options.sync, camera_offsets_ns);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(std::string("daemon options: sync: ") + e.what());
+  }
+  vio_filter = std::make_unique<estimator::VioFilter>(rig, options.vio_camera, options.estimator);
+  imu_channel = ChannelName(options.channels.imu, options.channel_suffix);
+  odom_channel = ChannelName(options.channels.odometry, options.channel_suffix);
+  status_channel = ChannelName(options.channels.status, options.channel_suffix);
+  for (auto& c : counters) c.store(0);
+  for (auto& t : last_log_ns) t.store(0);
+
+  const std::string url = ResolveLcmUrl(options.lcm_url);
+  if (log_mode) {
+    reader = std::make_unique<LcmLogReader>(options.input_log);
+    output_lcm = std::make_unique<lcm::LCM>(url);
+    if (!output_lcm->good()) {
+      throw InputError(FormatInputError("--lcm-url", url, "an LCM URL that opens"));
+    }
+    publish_lcm = output_lcm.get();
+  } else {
+    input_lcm = std::make_unique<lcm::LCM>(WithDefaultRecvBufSize(url));
+    if (!input_lcm->good()) {
+      throw InputError(FormatInputError("--lcm-url", url, "an LCM URL that opens"));
+    }
+    publish_lcm = input_lcm.get();
+    input_lcm->subscribe(imu_channel, &Impl::OnLcmMessage, this);
+    for (const std::string& channel : camera_channels) {
+      input_lcm->subscribe(channel, &Impl::OnLcmMessage, this);
+    }
+  }
+}
+
+void EstimatorDaemon::Impl::LogLimited(int topic, const char* format, ...) {
+  const int64_t now = SteadyNs();
+  std::atomic<int64_t>& last = last_log_ns[static_cast<std::size_t>(topic) % last_log_ns.size()];
+  const int64_t previous = last.load(std::memory_order_relaxed);
+  if (previous != 0 && now - previous < 1000 * kMs) return;
+  last.store(now, std::memory_order_relaxed);
+  char line[512];
+  va_list args;
+  va_start(args, format);
+  std::vsnprintf(line, sizeof(line), format, args);
+  va_end(args);
+  std::fprintf(stderr, "vilma-estimatord: %s\n", line);
+}
+
+// ---------------------------------------------------------------- input stage
+
+void EstimatorDaemon::Impl::OnLcmMessage(const lcm::ReceiveBuffer* rbuf,
+                                         const std::string& channel) {
+  // Never throws: LCM would abort the handle loop (and the decoders return errors instead).
+  try {
+    Dispatch(channel, rbuf->data, static_cast<int>(rbuf->data_size));
+  } catch (const std::exception& e) {
+    Count(kLcmErrors);
+    LogLimited(7, "handler error on %s: %s", channel.c_str(), e.what());
+  }
+}
+
+void EstimatorDaemon::Impl::Dispatch(const std::string& channel, const void* data, int size) {
+  const int64_t recv_ns = SteadyNs();
+  const int64_t recv_wall_us = WallUs();
+  if (channel == imu_channel) {
+    HandleImu(data, size, recv_ns, recv_wall_us);
+    return;
+  }
+  for (int i = 0; i < num_cameras; ++i) {
+    if (channel == camera_channels[static_cast<std::size_t>(i)]) {
+      HandleImage(i, data, size, recv_ns, recv_wall_us);
+      return;
+    }
+  }
+}
+
+template <typename Queue, typename Item>
+bool EstimatorDaemon::Impl::PushBlocking(Queue& queue, const Item& item) {
+  while (!queue.push(item)) {
+    if (stop.load(std::memory_order_relaxed)) return false;
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  return true;
+}
+
+void EstimatorDaemon::Impl::HandleImu(const void* data, int size, int64_t recv_ns,
+                                      int64_t recv_wall_us) {
+  Count(kImuReceived);
+  InputItem item;
+  const std::string error = DecodeImuMessage(data, size, &imu_msg, &item.imu);
+  if (!error.empty()) {
+    Count(kMalformedImu);
+    LogLimited(0, "malformed message on %s: %s", imu_channel.c_str(), error.c_str());
+    return;
+  }
+  item.kind = InputItem::Kind::kImu;
+  item.recv_steady_ns = recv_ns;
+  item.recv_latency_us = recv_wall_us - imu_msg.utime;
+  const bool pushed = log_mode ? PushBlocking(input_queue, item) : input_queue.push(item);
+  if (!pushed) {
+    Count(kImuDroppedInputQueue);
+    LogLimited(1, "BUG: input queue full, IMU sample dropped (queues.input_capacity)");
+    return;
+  }
+  sync_wake.Notify();
+}
+
+void EstimatorDaemon::Impl::HandleImage(int camera, const void* data, int size, int64_t recv_ns,
+                                        int64_t recv_wall_us) {
+  Count(kImagesReceived);
+  const std::string& channel = camera_channels[static_cast<std::size_t>(camera)];
+  std::string error = DecodeImageMessage(data, size, &image_msg);
+  if (!error.empty()) {
+    Count(kMalformedImages);
+    LogLimited(2, "malformed message on %s: %s", channel.c_str(), error.c_str());
+    return;
+  }
+  const Camera& model = rig.cameras[static_cast<std::size_t>(camera)].camera;
+  if (image_msg.width != model.width() || image_msg.height != model.height()) {
+    Count(kImagesWrongSize);
+    LogLimited(3, "image on %s is %dx%d, the rig's camera is %dx%d: dropped", channel.c_str(),
+               image_msg.width, image_msg.height, model.width(), model.height());
+    return;
+  }
+  cv::Mat slot = pool->TryAcquire(image_msg.height, image_msg.width, CV_8UC1);
+  if (slot.empty() && log_mode) {
+    // Blocking backpressure; bounded so that a logic error cannot hang the daemon.
+    const int64_t give_up = SteadyNs() + 5000 * kMs;
+    while (slot.empty() && !stop.load() && SteadyNs() < give_up) {
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+      slot = pool->TryAcquire(image_msg.height, image_msg.width, CV_8UC1);
+    }
+  }
+  if (slot.empty()) {
+    Count(kImagesDroppedPool);
+    LogLimited(4, "no free image slot: image on %s dropped", channel.c_str());
+    return;
+  }
+  if (image_msg.pixel_format == image_t::GRAY8) {
+    // The common case without a temporary: rows (row_stride may pad them) into the slot.
+    const cv::Mat view(image_msg.height, image_msg.width, CV_8UC1, image_msg.data.data(),
+                       static_cast<std::size_t>(image_msg.row_stride));
+    view.copyTo(slot);
+  } else {
+    cv::Mat gray;
+    error = MessageToGray8(image_msg, &gray);
+    if (!error.empty()) {
+      Count(kMalformedImages);
+      LogLimited(2, "malformed message on %s: %s", channel.c_str(), error.c_str());
+      return;
+    }
+    gray.copyTo(slot);
+  }
+  InputItem item;
+  item.kind = InputItem::Kind::kImage;
+  item.camera = camera;
+  item.t_cam_ns = UtimeToNs(image_msg.utime);
+  item.recv_steady_ns = recv_ns;
+  item.recv_latency_us = recv_wall_us - image_msg.utime;
+  item.image = slot;
+  const bool pushed = log_mode ? PushBlocking(input_queue, item) : input_queue.push(item);
+  if (!pushed) {
+    Count(kImagesDroppedInputQueue);
+    LogLimited(5, "input queue full: image on %s dropped", channel.c_str());
+    return;
+  }
+  sync_wake.Notify();
+}
+
+void EstimatorDaemon::Impl::InputLoop() {
+  if (log_mode) {
+    LcmLogEvent event;
+    while (!stop.load() && reader->Next(&event)) {
+      Dispatch(event.channel, event.data.data(), static_cast<int>(event.data.size()));
+    }
+  } else {
+    while (!stop.load()) {
+      if (input_lcm->handleTimeout(50) < 0) {
+        Count(kLcmErrors);
+        LogLimited(6, "lcm handle failed");
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    }
+  }
+  input_done.store(true);
+  sync_wake.Notify();
+}
+
+// ---------------------------------------------------------------- sync stage
+
+void EstimatorDaemon::Impl::PushFilter(const FilterItem& item) {
+  bool pushed = log_mode ? PushBlocking(filter_queue, item) : filter_queue.push(item);
+  if (!pushed) {
+    if (item.kind == FilterItem::Kind::kFrame) {
+      Count(kFramesDroppedFilterQueue);
+      frames_in_flight.fetch_sub(1);
+    } else {
+      Count(kImuDroppedFilterQueue);
+      LogLimited(1, "BUG: filter queue full, IMU sample dropped (queues.filter_capacity)");
+    }
+    return;
+  }
+  filter_wake.Notify();
+}
+
+void EstimatorDaemon::Impl::SyncLoop() {
+  SensorSynchronizer& sync = *synchronizer;
+  const int vio = options.vio_camera;
+  const int64_t silence_ns = SecondsToNs(options.camera_silence_s);
+  std::vector<int64_t> last_image_imu_ns(static_cast<std::size_t>(num_cameras), -1);
+  std::vector<bool> silent(static_cast<std::size_t>(num_cameras), false);
+  // Receive times of the latest VIO-camera images, by stamp (frames come out in order).
+  struct Received {
+    int64_t t_cam_ns = -1, recv_ns = 0, latency_us = 0;
+  };
+  std::array<Received, 64> received{};
+  std::size_t next_received = 0;
+  int64_t last_forwarded_imu_ns = std::numeric_limits<int64_t>::min();
+  InputItem item;
+  SyncedFrame frame;
+
+  auto forward = [&](SyncedFrame& f) {
+    if (f.time_jump_before) {
+      // The filter cannot go back in time: it restarts (the synchronizer cleared its history).
+      FilterItem restart;
+      restart.kind = FilterItem::Kind::kRestart;
+      PushFilter(restart);
+      Count(kTimeJumpRestarts);
+      last_forwarded_imu_ns = std::numeric_limits<int64_t>::min();
+      LogLimited(8, "timestamp jump: the filter restarts");
+    }
+    FilterItem out;
+    out.kind = FilterItem::Kind::kImu;
+    for (const ImuSample& s : f.imu) {
+      // Consecutive frames share their boundary sample; forward each sample once.
+      if (s.t_ns <= last_forwarded_imu_ns) continue;
+      out.imu = s;
+      PushFilter(out);
+      last_forwarded_imu_ns = s.t_ns;
+    }
+    const cv::Mat& image = f.images[static_cast<std::size_t>(vio)];
+    if (image.empty()) {
+      Count(kFramesWithoutVioCamera);
+      return;
+    }
+    if (frames_in_flight.load() >= options.queues.max_frames_in_flight) {
+      if (!log_mode) {
+        Count(kFramesDroppedBusy);
+        return;
+      }
+      while (frames_in_flight.load() >= options.queues.max_frames_in_flight && !stop.load()) {
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+    }
+    FilterItem frame_item;
+    frame_item.kind = FilterItem::Kind::kFrame;
+    frame_item.t_cam_ns = f.t_cam_ns[static_cast<std::size_t>(vio)];
+    frame_item.image = image;
+    frame_item.synced_steady_ns = SteadyNs();
+    frame_item.recv_steady_ns = frame_item.synced_steady_ns;
+    for (const Received& r : received) {
+      if (r.t_cam_ns == frame_item.t_cam_ns) {
+        frame_item.recv_steady_ns = r.recv_ns;
+        frame_item.recv_latency_us = r.latency_us;
+        break;
+      }
+    }
+    frames_in_flight.fetch_add(1);
+    PushFilter(frame_item);
+  };
+
+  while (true) {
+    bool any = false;
+    const int depth = static_cast<int>(input_queue.read_available());
+    if (depth > input_depth_max.load()) input_depth_max.store(depth);
+    while (input_queue.pop(item)) {
+      any = true;
+      if (item.kind == InputItem::Kind::kImu) {
+        sync.AddImu(item.imu);
+        for (int c = 0; c < num_cameras; ++c) {
+          const std::size_t k = static_cast<std::size_t>(c);
+          if (last_image_imu_ns[k] >= 0 && !silent[k] &&
+              item.imu.t_ns - last_image_imu_ns[k] > silence_ns) {
+            silent[k] = true;
+            Count(kCameraSilences);
+            LogLimited(9, "camera %d silent for more than %.2f s", c, options.camera_silence_s);
+          }
+        }
+      } else {
+        const std::size_t k = static_cast<std::size_t>(item.camera);
+        last_image_imu_ns[k] = item.t_cam_ns + camera_offsets_ns[k];
+        silent[k] = false;
+        if (item.camera == vio) {
+          received[next_received] = {item.t_cam_ns, item.recv_steady_ns, item.recv_latency_us};
+          next_received = (next_received + 1) % received.size();
+        }
+        sync.AddImage(item.camera, item.t_cam_ns, item.image);
+        item.image.release();  // the synchronizer holds its own reference
+      }
+      while (sync.PopFrame(&frame)) {
+        forward(frame);
+        for (cv::Mat& m : frame.images) m.release();
+      }
+    }
+    const SensorSyncCounters& s = sync.counters();
+    const int64_t values[] = {s.imu_received,       s.imu_duplicates,     s.imu_out_of_order,
+                              s.imu_gaps,           s.imu_time_jumps,     s.images_received,
+                              s.images_duplicate,   s.images_out_of_order, s.images_late,
+                              s.image_time_jumps,   s.frames_released,    s.frames_incomplete,
+                              s.frames_dropped_no_imu, s.frames_dropped_overflow};
+    for (int i = 0; i < 14; ++i) counters[kSyncImuReceived + i].store(values[i], std::memory_order_relaxed);
+    if (!any) {
+      if (input_done.load() && input_queue.read_available() == 0) break;
+      sync_wake.Wait(50 * kMs);
+    }
+  }
+  sync_done.store(true);
+  filter_wake.Notify();
+  // Frames still held by the synchronizer (waiting for IMU that will not come) are released
+  // with it, back to the pool.
+}
+
+// ---------------------------------------------------------------- filter stage
+
+void EstimatorDaemon::Impl::FilterLoop() {
+  const int vio = options.vio_camera;
+  std::unique_ptr<estimator::VioFilter>& filter = vio_filter;
+  bool ever_initialized = false;
+  int64_t frames = 0;
+  int64_t resets_before_restart = 0;
+  Eigen::Vector3d last_omega = Eigen::Vector3d::Zero();
+  FilterItem item;
+  while (true) {
+    bool any = false;
+    const int depth = static_cast<int>(filter_queue.read_available());
+    if (depth > filter_depth_max.load()) filter_depth_max.store(depth);
+    while (filter_queue.pop(item)) {
+      any = true;
+      if (item.kind == FilterItem::Kind::kImu) {
+        filter->AddImu(item.imu);
+        last_omega = item.imu.omega_I;
+      } else if (item.kind == FilterItem::Kind::kRestart) {
+        resets_before_restart += filter->stats().resets;
+        filter = std::make_unique<estimator::VioFilter>(rig, vio, options.estimator);
+        ever_initialized = false;
+      } else {
+        if (options.fault_stall_filter_after >= 0 && frames >= options.fault_stall_filter_after) {
+          // Fault injection (--fault-stall-filter-after): the filter stops making progress,
+          // so the watchdog is no longer petted. Only a stop request ends the stall.
+          if (!filter_stalled.exchange(true)) {
+            std::fprintf(stderr, "vilma-estimatord: fault injection: filter stalled after %lld frames\n",
+                         static_cast<long long>(frames));
+          }
+          while (!stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        OutputItem out;
+        out.filter_start_ns = SteadyNs();
+        const estimator::FrameResult r = filter->AddImage(item.t_cam_ns, item.image);
+        out.filtered_steady_ns = SteadyNs();
+        item.image.release();  // back to the pool
+        frames_in_flight.fetch_sub(1);
+        ++frames;
+        Count(kFramesFiltered);
+        counters[kFilterResets].store(resets_before_restart + filter->stats().resets,
+                                      std::memory_order_relaxed);
+        if (r.reset) LogLimited(10, "filter reset: %s", r.reset_reason.c_str());
+        if (r.pose_valid) ever_initialized = true;
+        int32_t status = pose_t::INITIALIZING;
+        if (r.reset || (!r.pose_valid && ever_initialized)) {
+          status = pose_t::LOST;
+        } else if (r.pose_valid) {
+          status = pose_t::TRACKING;
+        }
+        out.status = status;
+        filter_state.store(out.status, std::memory_order_relaxed);
+        features.store(r.num_features, std::memory_order_relaxed);
+        out.t_ns = r.pose_valid ? r.t_ns
+                                : item.t_cam_ns + rig.cameras[static_cast<std::size_t>(vio)].time_offset_ns;
+        out.features = r.num_features;
+        out.recv_steady_ns = item.recv_steady_ns;
+        out.recv_latency_us = item.recv_latency_us;
+        out.synced_steady_ns = item.synced_steady_ns;
+        if (r.pose_valid) {
+          const estimator::FilterState& x = filter->state();
+          const Eigen::Vector3d& p = r.T_M_I.translation();
+          const Eigen::Quaterniond& q = r.T_M_I.rotation();
+          const Eigen::Vector3d omega_I = last_omega - x.b_g;
+          for (int i = 0; i < 3; ++i) {
+            out.position[i] = p[i];
+            out.velocity[i] = x.v_W[i];
+            out.angular_velocity[i] = omega_I[i];
+          }
+          out.orientation[0] = q.w();
+          out.orientation[1] = q.x();
+          out.orientation[2] = q.y();
+          out.orientation[3] = q.z();
+          // The filter's attitude error is right-perturbed (q = q Exp(dtheta), local); pose_t
+          // wants the global (left) error delta = R dtheta. Hence with R = R_M_I:
+          //   Cov = [P_pp, P_pt R^T; R P_tp, R P_tt R^T].
+          const Eigen::MatrixXd& P = filter->covariance();
+          if (P.rows() >= estimator::kIdxQ + 3) {
+            const Eigen::Matrix3d R = q.toRotationMatrix();
+            Eigen::Matrix<double, 6, 6> C;
+            C.block<3, 3>(0, 0) = P.block<3, 3>(estimator::kIdxP, estimator::kIdxP);
+            C.block<3, 3>(0, 3) = P.block<3, 3>(estimator::kIdxP, estimator::kIdxQ) * R.transpose();
+            C.block<3, 3>(3, 0) = C.block<3, 3>(0, 3).transpose();
+            C.block<3, 3>(3, 3) = R * P.block<3, 3>(estimator::kIdxQ, estimator::kIdxQ) * R.transpose();
+            for (int i = 0; i < 6; ++i) {
+              for (int j = 0; j < 6; ++j) out.covariance[6 * i + j] = C(i, j);
+            }
+          }
+        }
+        const bool pushed = log_mode ? PushBlocking(output_queue, out) : output_queue.push(out);
+        if (!pushed) {
+          Count(kPosesDroppedOutput);
+        } else {
+          output_wake.Notify();
+        }
+      }
+      // Petted while the filter makes progress (here) or waits for data (below); a stalled
+      // filter stops petting and systemd restarts the service.
+      notifier.PetWatchdog(SteadyNs());
+    }
+    if (!any) {
+      if (sync_done.load() && filter_queue.read_available() == 0) break;
+      notifier.PetWatchdog(SteadyNs());
+      filter_wake.Wait(50 * kMs);
+    }
+  }
+  filter_done.store(true);
+  output_wake.Notify();
+}
+
+// ---------------------------------------------------------------- publisher
+
+void EstimatorDaemon::Impl::PublishStatus(int state, int64_t now_ns) {
+  // CPU load of the whole process over the last period [fraction of one core].
+  rusage usage;
+  getrusage(RUSAGE_SELF, &usage);
+  const int64_t cpu_us = (usage.ru_utime.tv_sec + usage.ru_stime.tv_sec) * 1000000LL +
+                         usage.ru_utime.tv_usec + usage.ru_stime.tv_usec;
+  if (last_cpu_us >= 0 && now_ns > last_cpu_wall_ns) {
+    cpu_load = static_cast<double>(cpu_us - last_cpu_us) * 1000.0 /
+               static_cast<double>(now_ns - last_cpu_wall_ns);
+  }
+  last_cpu_us = cpu_us;
+  last_cpu_wall_ns = now_ns;
+
+  status_t msg;
+  msg.utime = WallUs();
+  msg.node = "vilma-estimatord";
+  msg.state = state;
+  const int fstate = filter_state.load();
+  const char* fname = fstate == pose_t::TRACKING ? "TRACKING"
+                      : fstate == pose_t::LOST   ? "LOST"
+                                                 : "INITIALIZING";
+  int64_t malformed = Get(kMalformedImu) + Get(kMalformedImages) + Get(kImagesWrongSize);
+  int64_t drops = 0;
+  for (Counter c : kDropCounters) drops += Get(c);
+  std::ostringstream text;
+  text << fname << ", " << features.load() << " features";
+  if (filter_stalled.load()) text << ", FILTER STALLED (fault injection)";
+  if (Get(kImuDroppedInputQueue) + Get(kImuDroppedFilterQueue) > 0) text << ", IMU DROPPED";
+  msg.message = text.str();
+  if (state == status_t::OK && (fstate != pose_t::TRACKING || filter_stalled.load())) {
+    msg.state = status_t::DEGRADED;
+  }
+  for (int i = 0; i < kNumCounters; ++i) {
+    msg.counter_names.push_back(kCounterNames[static_cast<std::size_t>(i)]);
+    msg.counter_values.push_back(Get(static_cast<Counter>(i)));
+  }
+  auto add_counter = [&](const char* name, int64_t value) {
+    msg.counter_names.push_back(name);
+    msg.counter_values.push_back(value);
+  };
+  add_counter("malformed_messages", malformed);
+  add_counter("drops", drops);
+  add_counter("filter_state", fstate);
+  add_counter("tracked_features", features.load());
+  add_counter("queue_input_depth_max", input_depth_max.exchange(0));
+  add_counter("queue_filter_depth_max", filter_depth_max.exchange(0));
+  add_counter("queue_output_depth_max", output_depth_max.exchange(0));
+  add_counter("image_pool_free", pool->num_free());
+  msg.num_counters = static_cast<int32_t>(msg.counter_names.size());
+  auto add_metric = [&](const std::string& name, double value) {
+    msg.metric_names.push_back(name);
+    msg.metric_values.push_back(value);
+  };
+  add_metric("cpu_load", cpu_load);
+  const std::pair<const char*, LatencyWindow*> stages[] = {
+      {"latency_receive", &lat_receive},   // utime -> received (wall clock; sensor clock!)
+      {"latency_sync", &lat_sync},         // received -> synced
+      {"latency_filter_wait", &lat_filter_wait},  // synced -> filter starts
+      {"latency_filter", &lat_filter},     // filter update
+      {"latency_publish", &lat_publish},   // filtered -> published
+      {"latency_total", &lat_total}};      // received -> published
+  for (const auto& [name, window] : stages) {
+    add_metric(std::string(name) + "_p50_ms", window->Percentile(0.5));
+    add_metric(std::string(name) + "_p99_ms", window->Percentile(0.99));
+  }
+  msg.num_metrics = static_cast<int32_t>(msg.metric_names.size());
+  ++status_seq;
+  publish_lcm->publish(status_channel, &msg);
+}
+
+void EstimatorDaemon::Impl::PublishLoop() {
+  pose_t msg;
+  msg.parent_frame = "M";
+  msg.child_frame = "I";
+  int64_t seq = 0;
+  const int64_t period_ns = SecondsToNs(options.status_period_s);
+  int64_t next_status_ns = SteadyNs();
+  OutputItem out;
+  while (true) {
+    bool any = false;
+    const int depth = static_cast<int>(output_queue.read_available());
+    if (depth > output_depth_max.load()) output_depth_max.store(depth);
+    while (output_queue.pop(out)) {
+      any = true;
+      msg.utime = NsToUtime(out.t_ns);
+      msg.seq = seq++;
+      std::copy(out.position, out.position + 3, msg.position);
+      std::copy(out.orientation, out.orientation + 4, msg.orientation);
+      std::copy(out.velocity, out.velocity + 3, msg.velocity);
+      std::copy(out.angular_velocity, out.angular_velocity + 3, msg.angular_velocity);
+      std::copy(out.covariance, out.covariance + 36, msg.covariance);
+      msg.status = out.status;
+      publish_lcm->publish(odom_channel, &msg);
+      const int64_t published = SteadyNs();
+      Count(kPosesPublished);
+      lat_receive.Add(static_cast<double>(out.recv_latency_us) * 1e-3);
+      lat_sync.Add(static_cast<double>(out.synced_steady_ns - out.recv_steady_ns) * 1e-6);
+      lat_filter_wait.Add(static_cast<double>(out.filter_start_ns - out.synced_steady_ns) * 1e-6);
+      lat_filter.Add(static_cast<double>(out.filtered_steady_ns - out.filter_start_ns) * 1e-6);
+      lat_publish.Add(static_cast<double>(published - out.filtered_steady_ns) * 1e-6);
+      lat_total.Add(static_cast<double>(published - out.recv_steady_ns) * 1e-6);
+    }
+    const int64_t now = SteadyNs();
+    if (now >= next_status_ns) {
+      const int32_t state = status_seq == 0 ? static_cast<int32_t>(status_t::STARTING)
+                                             : static_cast<int32_t>(status_t::OK);
+      PublishStatus(state, now);
+      next_status_ns = std::max(next_status_ns + period_ns, now + period_ns / 2);
+    }
+    if (!any) {
+      if (filter_done.load() && output_queue.read_available() == 0) break;
+      output_wake.Wait(std::min<int64_t>(50 * kMs, std::max<int64_t>(kMs, next_status_ns - now)));
+    }
+  }
+  PublishStatus(status_t::STOPPING, SteadyNs());
+}
+
+// ---------------------------------------------------------------- EstimatorDaemon
+
+EstimatorDaemon::EstimatorDaemon(const DaemonOptions& options, const SensorRig& rig)
+    : impl_(std::make_unique<Impl>(options, rig)) {}
+
+EstimatorDaemon::~EstimatorDaemon() = default;
+
+void EstimatorDaemon::RequestStop() { impl_->stop.store(true); }
+
+DaemonSummary EstimatorDaemon::Run() {
+  Impl& d = *impl_;
+  std::thread publisher([&] { d.PublishLoop(); });
+  std::thread filter([&] { d.FilterLoop(); });
+  std::thread sync([&] { d.SyncLoop(); });
+  // Subscribed (constructor) and every stage is up.
+  d.notifier.Ready();
+  d.notifier.Status(d.log_mode ? "reading " + d.options.input_log : "running");
+  std::thread input([&] { d.InputLoop(); });
+  input.join();
+  if (d.stop.load()) d.notifier.Stopping();
+  sync.join();
+  filter.join();
+  publisher.join();
+  if (!d.stop.load()) d.notifier.Stopping();
+  // Close LCM: a file:// provider flushes its file here (the output of an --input-log run).
+  d.publish_lcm = nullptr;
+  d.output_lcm.reset();
+  d.input_lcm.reset();
+
+  DaemonSummary summary;
+  summary.frames_filtered = d.Get(kFramesFiltered);
+  summary.poses_published = d.Get(kPosesPublished);
+  summary.malformed_messages = d.Get(kMalformedImu) + d.Get(kMalformedImages) + d.Get(kImagesWrongSize);
+  for (Counter c : kDropCounters) summary.drops += d.Get(c);
+  std::ostringstream report;
+  for (int i = 0; i < kNumCounters; ++i) {
+    report << kCounterNames[static_cast<std::size_t>(i)] << " " << d.Get(static_cast<Counter>(i)) << "\n";
+  }
+  summary.report = report.str();
+  return summary;
+}
+
+}  // namespace vilma::daemon

@@ -1,0 +1,72 @@
+#!/bin/bash
+# Realtime benchmark of vilma-estimatord: a simulated set (one camera 752x480 at 20 Hz, IMU at
+# 200 Hz) replayed in real time over LCM loopback -> daemon; a probe process on the same host
+# measures the end-to-end latency per frame = (receive time of VILMA_ODOM) - (receive time of the
+# image with the same utime on CAM0), both on its own clock (vilma-replay stamps messages with
+# dataset time, so utime cannot be compared with the wall clock). CPU load of the daemon from
+# /proc/PID/stat over the replay, and from its VILMA_STATUS. Results: docs/benchmarks.md
+# ("Daemon").
+#
+# Usage: scripts/bench-daemon.sh [SECONDS] [PRESET]
+#   SECONDS  length of the simulated set (default 30), PRESET vilma-sim world (default room)
+#   VILMA_BUILD_DIR  build folder with bin/vilma-{estimatord,replay,sim,latency-probe}
+#   VILMA_CACHE      where the simulated set is kept (default ~/.cache/vilma)
+#   BENCH_REPEAT     runs (default 1)
+set -euo pipefail
+
+repo_dir=$(cd "$(dirname "$0")/.." && pwd)
+build_dir=${VILMA_BUILD_DIR:-$repo_dir/build}
+cache=${VILMA_CACHE:-$HOME/.cache/vilma}
+seconds=${1:-30}
+preset=${2:-room}
+repeat=${BENCH_REPEAT:-1}
+bin=$build_dir/bin
+for exe in vilma-estimatord vilma-replay vilma-sim vilma-latency-probe; do
+  [ -x "$bin/$exe" ] || { echo "bench-daemon: $bin/$exe not built (set VILMA_BUILD_DIR)" >&2; exit 1; }
+done
+
+dataset=$cache/bench-daemon/$preset-${seconds}s
+if [ ! -f "$dataset/rig.yaml" ]; then
+  echo "bench-daemon: simulating $preset, $seconds s -> $dataset" >&2
+  "$bin/vilma-sim" "$preset" --out "$dataset" --seconds "$seconds" --seed 1 > /dev/null
+fi
+
+work=$(mktemp -d /tmp/vilma-bench-daemon.XXXXXX)
+daemon_pid=""
+cleanup() {
+  [ -n "$daemon_pid" ] && kill "$daemon_pid" 2>/dev/null || true
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+ticks=$(getconf CLK_TCK)
+cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
+
+echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | daemon CPU (status) | drops | malformed |"
+echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+port=$(( 22000 + $$ % 20000 ))
+for _ in $(seq "$repeat"); do
+  port=$((port + 1))
+  url="udpm://239.255.76.67:$port?ttl=0"
+  "$bin/vilma-estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" > "$work/daemon.out" 2>&1 &
+  daemon_pid=$!
+  "$bin/vilma-latency-probe" --lcm-url "$url" --idle-timeout 2 > "$work/probe.out" 2>&1 &
+  probe_pid=$!
+  for _ in $(seq 100); do grep -q listening "$work/probe.out" && break; sleep 0.05; done
+  sleep 1  # the daemon subscribes and reports its first status
+  c0=$(cpu_ticks "$daemon_pid"); t0=$(date +%s.%N)
+  "$bin/vilma-replay" "$dataset" --lcm-url "$url" --quiet > "$work/replay.out" 2>&1
+  c1=$(cpu_ticks "$daemon_pid"); t1=$(date +%s.%N)
+  wait "$probe_pid"
+  kill -TERM "$daemon_pid"; wait "$daemon_pid" || true; daemon_pid=""
+  cpu=$(awk -v c0="$c0" -v c1="$c1" -v t0="$t0" -v t1="$t1" -v hz="$ticks" \
+    'BEGIN {printf "%.0f%%", 100 * (c1 - c0) / hz / (t1 - t0)}')
+  get() { awk -v k="$1" '$1 == k {print $2}' "$work/probe.out"; }
+  lat() { awk -v k="$1" '$1 == "latency_ms" {for (i = 2; i < NF; i += 2) if ($i == k) print $(i + 1)}' "$work/probe.out"; }
+  matched=$(awk '$1 == "images" {print $6}' "$work/probe.out")
+  frames=$(awk '$1 == "images" {print $4}' "$work/probe.out")
+  status_cpu=$(awk '$1 == "status_cpu_load" {printf "%.0f%%", 100 * $2}' "$work/probe.out")
+  printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" "$frames" \
+    "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$status_cpu" "$(get drops)" \
+    "$(get malformed_messages)"
+done
