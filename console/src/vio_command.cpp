@@ -6,6 +6,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <memory>
+#include <unordered_map>
 #include <opencv2/core/utility.hpp>
 #include <sstream>
 
@@ -14,6 +16,9 @@
 #include "vilma/core/rig.h"
 #include "vilma/core/trajectory.h"
 #include "vilma/estimator/vio_filter.h"
+#include "vilma/mapping/map_builder.h"
+#include "vilma/mapstore/consistency.h"
+#include "vilma/mapstore/map_io.h"
 
 namespace vilma::console {
 namespace {
@@ -30,6 +35,7 @@ double Percentile(std::vector<double> v, double q) {
 void PrintVioHelp(std::ostream& out) {
   out << "usage: vilma vio DATASET --out TRAJ.txt [--config FILE] [--rig RIG.yaml]\n"
          "                 [--camera INDEX] [--log-timing FILE] [--print-config]\n"
+         "                 [--save-map DIR [--map-config FILE]]\n"
          "\n"
          "Runs the ROVIO-style visual-inertial odometry over an ASL/EuRoC dataset folder,\n"
          "single-threaded and deterministically, and writes the IMU pose T_M_I of every frame\n"
@@ -42,7 +48,12 @@ void PrintVioHelp(std::ostream& out) {
          "                      EuRoC sensor.yaml files of DATASET)\n"
          "  --camera INDEX      camera of the rig to use (default 0)\n"
          "  --log-timing FILE   per-frame CSV: t_ns,ms,features,updated,rejected,added\n"
-         "  --print-config      print the effective filter options\n";
+         "  --print-config      print the effective filter options (and map builder options)\n"
+         "  --save-map DIR      also build a VI-map mission (vertices, IMU edges, keyframe\n"
+         "                      features of every camera of the dataset, landmarks) and save it\n"
+         "                      as a map folder in DIR; prints the builder statistics\n"
+         "  --map-config FILE   map builder options YAML (default: the built-in defaults, which\n"
+         "                      are config/map_builder.yaml)\n";
 }
 
 VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
@@ -72,6 +83,10 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
       o.rig_path = next();
     } else if (a == "--log-timing") {
       o.timing_path = next();
+    } else if (a == "--save-map") {
+      o.save_map_dir = next();
+    } else if (a == "--map-config") {
+      o.map_config_path = next();
     } else if (a == "--print-config") {
       o.print_config = true;
     } else if (a == "--camera") {
@@ -94,6 +109,9 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
   if (!o.help) {
     if (o.dataset.empty()) throw UsageError("expected a DATASET folder");
     if (o.out_path.empty()) throw UsageError("--out: required");
+    if (!o.map_config_path.empty() && o.save_map_dir.empty()) {
+      throw UsageError("--map-config: only with --save-map");
+    }
   }
   return o;
 }
@@ -134,11 +152,42 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     if (dataset.imu().empty()) {
       throw InputError(FormatInputError(o.dataset, "imu0/data.csv", "IMU samples"));
     }
+    mapping::MapBuilderOptions map_options;
+    if (!o.map_config_path.empty()) map_options = mapping::LoadMapBuilderOptions(o.map_config_path);
     if (o.print_config) out << estimator::FilterOptionsToYaml(options);
+    if (o.print_config && !o.save_map_dir.empty()) {
+      out << "# map builder\n" << mapping::MapBuilderOptionsToYaml(map_options);
+    }
     estimator::VioFilter filter(rig, o.camera, options);
     const auto& frames = dataset.cameras()[static_cast<std::size_t>(o.camera)].frames;
     const auto& imu = dataset.imu();
     const int64_t offset_ns = rig.cameras[static_cast<std::size_t>(o.camera)].time_offset_ns;
+
+    // Map building (--save-map): one builder, fed the same IMU samples as the filter and the
+    // filter's state at every frame with a pose. Images of the other cameras are the frames
+    // with the same camera time stamp (synchronized rig); a camera without one at that time
+    // gets no features in that vertex.
+    std::unique_ptr<mapping::MapBuilder> builder;
+    std::vector<std::unordered_map<int64_t, std::string>> camera_frames;
+    if (!o.save_map_dir.empty()) {
+      if (dataset.cameras().size() < rig.cameras.size() && map_options.cameras.empty()) {
+        // Only the cameras the dataset has.
+        for (std::size_t c = 0; c < dataset.cameras().size(); ++c) {
+          map_options.cameras.push_back(static_cast<int>(c));
+        }
+      }
+      builder = std::make_unique<mapping::MapBuilder>(
+          rig, map_options, /*mission_seed=*/1,
+          std::filesystem::path(o.dataset).lexically_normal().filename().string());
+      camera_frames.resize(rig.cameras.size());
+      for (std::size_t c = 0; c < rig.cameras.size() && c < dataset.cameras().size(); ++c) {
+        for (const CameraFrame& f : dataset.cameras()[c].frames) {
+          camera_frames[c].emplace(f.t_ns, f.image_path);
+        }
+      }
+    }
+    std::vector<cv::Mat> map_images;
+    double map_ms = 0.0;
 
     Trajectory trajectory;
     std::vector<double> frame_ms;
@@ -153,9 +202,13 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
       // Feed every IMU sample up to the frame's IMU time (plus one beyond for interpolation).
       const int64_t t_imu = frame.t_ns + offset_ns;
       while (next_imu < imu.size() && imu[next_imu].t_ns <= t_imu) {
+        if (builder) builder->AddImu(imu[next_imu]);
         filter.AddImu(imu[next_imu++]);
       }
-      if (next_imu < imu.size()) filter.AddImu(imu[next_imu++]);
+      if (next_imu < imu.size()) {
+        if (builder) builder->AddImu(imu[next_imu]);
+        filter.AddImu(imu[next_imu++]);
+      }
       const auto t0 = std::chrono::steady_clock::now();
       const estimator::FrameResult r = filter.AddImage(frame.t_ns, image);
       const double ms =
@@ -166,6 +219,32 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
         err << "vilma vio: reset at t = " << r.t_ns << " ns: " << r.reset_reason << "\n";
       }
       if (!r.pose_valid) continue;
+      if (builder && !builder->WantsFrame(r.t_ns)) {
+        mapping::FrameState state;  // counted as skipped by the vertex rate; no images needed
+        state.t_ns = r.t_ns;
+        state.T_M_I = r.T_M_I;
+        builder->AddFrame(state, {});
+      } else if (builder) {
+        const auto tm = std::chrono::steady_clock::now();
+        map_images.assign(rig.cameras.size(), cv::Mat());
+        for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
+          if (static_cast<int>(c) == o.camera) {
+            map_images[c] = image;
+            continue;
+          }
+          const auto it = camera_frames[c].find(frame.t_ns);
+          if (it != camera_frames[c].end()) map_images[c] = AslDataset::LoadImage(it->second);
+        }
+        mapping::FrameState state;
+        state.t_ns = r.t_ns;
+        state.T_M_I = r.T_M_I;
+        state.v_M = filter.state().v_W;
+        state.gyro_bias = filter.state().b_g;
+        state.accel_bias = filter.state().b_a;
+        builder->AddFrame(state, map_images);
+        map_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tm)
+                      .count();
+      }
       frame_ms.push_back(ms);
       timing << r.t_ns << "," << ms << "," << r.num_features << "," << r.num_updated << ","
              << r.num_rejected << "," << r.num_added << "\n";
@@ -203,6 +282,24 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
         << "  initializations  " << s.static_starts << " static, " << s.moving_starts
         << " moving start\n"
         << "  resets           " << resets << "\n";
+    if (builder) {
+      // The rest of the IMU stream completes the last edge.
+      while (next_imu < imu.size()) builder->AddImu(imu[next_imu++]);
+      const mapstore::VIMap& map = builder->Finish();
+      const mapstore::MapSaveSummary saved = mapstore::SaveMap(map, o.save_map_dir);
+      const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
+      out << "vilma vio: map " << o.save_map_dir << " (mission " << builder->mission_id().Hex()
+          << ")\n"
+          << builder->stats().ToString("  ") << "  builder wall     " << map_ms
+          << " ms in AddFrame incl. loading the other cameras' images\n"
+          << "  saved            " << saved.files_written << " files, " << saved.bytes_written
+          << " bytes\n"
+          << "  consistency      " << report.ToString() << "\n";
+      if (!report.ok()) {
+        err << "vilma vio: error: the built map is not consistent\n";
+        return kExitInputError;
+      }
+    }
   } catch (const InputError& e) {
     err << "vilma vio: error: " << e.what() << "\n";
     return kExitInputError;

@@ -30,6 +30,16 @@ TEST_CASE("vilma vio parses its command line") {
   CHECK_THROWS_WITH(ParseVioArgs({"DATA", "--out"}), Catch::Contains("expected a value"));
 }
 
+TEST_CASE("vilma vio parses --save-map and --map-config") {
+  const VioCommandOptions o =
+      ParseVioArgs({"DATA", "--out", "t.txt", "--save-map", "map", "--map-config=m.yaml"});
+  CHECK(o.save_map_dir == "map");
+  CHECK(o.map_config_path == "m.yaml");
+  CHECK(ParseVioArgs({"DATA", "--out", "t.txt"}).save_map_dir.empty());
+  CHECK_THROWS_WITH(ParseVioArgs({"DATA", "--out", "t", "--map-config", "m.yaml"}),
+                    Catch::Contains("--map-config: only with --save-map"));
+}
+
 TEST_CASE("vilma vio exits 2 on usage errors and 1 on bad input") {
   std::ostringstream out, err;
   CHECK(RunVioCommand({"--bogus"}, out, err) == kExitUsage);

@@ -2,11 +2,15 @@
 // an ASL dataset folder, single-threaded and deterministically.
 //
 //   vilma vio DATASET [--config FILE] [--rig RIG.yaml] [--camera INDEX] --out TRAJ.txt
-//             [--log-timing FILE]
+//             [--log-timing FILE] [--save-map DIR [--map-config FILE]]
 //
 // Rig: --rig, else DATASET/rig.yaml if present (the simulator writes one), else the EuRoC
 // sensor.yaml files of DATASET. Writes T_M_I of every frame as TUM text (t in seconds, IMU
 // clock) and prints a timing summary (ms per frame p50/p99, real-time factor).
+// --save-map DIR also builds a VI-map mission while the filter runs (mapping/map_builder.h:
+// vertices with the filter's state at the vertex rate, keyframe features of every rig camera
+// whose images the dataset has, IMU edges, landmarks at the end), saves it as a map folder and
+// prints the builder's statistics and the consistency check.
 #pragma once
 
 #include <ostream>
@@ -25,6 +29,9 @@ struct VioCommandOptions {
   std::string out_path;         // --out, required
   std::string timing_path;      // --log-timing, empty: none
   bool print_config = false;    // --print-config: print the effective options
+  std::string save_map_dir;     // --save-map, empty: no map
+  // --map-config, empty: built-in defaults (= config/map_builder.yaml)
+  std::string map_config_path;
   bool help = false;
 };
 

@@ -1,0 +1,153 @@
+// The map builder (docs/mapping.md), as maplab's ROVIOLI map builder: turns the estimator's
+// states, the raw IMU stream and the camera images into a VI-map mission.
+//
+//   AddImu(sample)       every IMU sample, in time order (duplicates / out of order dropped).
+//   AddFrame(state, images)
+//                        a synchronized frame with the estimator's state at its time. At most
+//                        at options.vertex_rate_hz it becomes a vertex: keyframe features are
+//                        extracted per camera and tracked from the previous vertex with the
+//                        gyroscope rotation integrated since then; the IMU edge from the
+//                        previous vertex carries the raw samples between the two.
+//   TakeDelta()          what changed since the last call (the live mission stream).
+//   Finish()             triangulates a landmark per track with >= 2 observations, stores it
+//                        in its first observing vertex, adds the observations, evaluates the
+//                        landmark quality and marks the mission complete.
+//
+// IMU edges: the edge from vertex a (time t_a) to b (t_b) holds [s(t_a), every raw sample with
+// t_a < t < t_b, s(t_b)], where s(t) is the raw sample at t if one has that stamp, else the
+// linear interpolation of the two samples around t (core/imu.h InterpolateImu). So every raw
+// sample strictly between the first and last vertex is in exactly one edge, and the edges
+// cover their vertices' times exactly (CheckMapConsistency). An edge whose end sample has not
+// arrived yet stays pending until it does (the IMU may lag the frames); Finish() completes a
+// still pending edge by holding the last sample (zero-order hold), and counts it.
+//
+// Deterministic: the same inputs and mission seed give the same map, ids included.
+// Not thread-safe: one thread calls everything (the daemon's map-builder thread).
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <opencv2/core.hpp>
+#include <string>
+#include <vector>
+
+#include "vilma/core/geometry.h"
+#include "vilma/core/imu.h"
+#include "vilma/core/rig.h"
+#include "vilma/localizer/feature_tracker.h"
+#include "vilma/mapping/map_builder_options.h"
+#include "vilma/mapping/triangulation.h"
+#include "vilma/mapstore/map_io.h"
+#include "vilma/mapstore/vi_map.h"
+
+namespace vilma::mapping {
+
+// The estimator's state at a frame (IMU clock), plain so that this library needs no estimator.
+struct FrameState {
+  int64_t t_ns = 0;  // state time, IMU clock [ns]
+  Transformation T_M_I;
+  Eigen::Vector3d v_M = Eigen::Vector3d::Zero();         // [m/s]
+  Eigen::Vector3d gyro_bias = Eigen::Vector3d::Zero();   // b_g [rad/s]
+  Eigen::Vector3d accel_bias = Eigen::Vector3d::Zero();  // b_a [m/s^2]
+};
+
+struct MapBuilderStats {
+  int64_t imu_samples = 0;          // accepted
+  int64_t imu_dropped = 0;          // duplicate or out-of-order stamps
+  int64_t frames = 0;               // AddFrame calls
+  int64_t frames_skipped_rate = 0;  // not a vertex because of the vertex rate
+  int64_t frames_rejected = 0;      // not increasing in time
+  int64_t vertices = 0;
+  int64_t imu_edges = 0;            // completed
+  int64_t imu_edges_held = 0;       // completed by Finish() with a held last sample
+  int64_t keypoints = 0;            // over all vertices and cameras
+  int64_t tracked_keypoints = 0;    // keypoints that continue a track
+  int64_t tracks = 0;               // tracks with >= 2 observations
+  int64_t single_observations = 0;  // tracks seen once (no landmark)
+  int64_t landmarks = 0;            // stored (good + bad)
+  int64_t landmarks_good = 0;
+  int64_t landmarks_bad = 0;
+  int64_t verdicts[kNumLandmarkVerdicts] = {};  // per LandmarkVerdict (index = enum value)
+  double vertex_ms_total = 0.0;  // time in AddFrame for frames that became vertices [ms]
+  double vertex_ms_max = 0.0;
+  double finish_ms = 0.0;  // time in Finish() [ms]
+
+  double vertex_ms_mean() const { return vertices > 0 ? vertex_ms_total / vertices : 0.0; }
+  // Multi-line human-readable summary (indented by `indent`).
+  std::string ToString(const std::string& indent = "  ") const;
+};
+
+class MapBuilder {
+ public:
+  // `mission_seed` fixes the mission id (and through IdGenerator::ForMission every object id).
+  // Throws InputError for invalid options or a rig / camera list that does not fit.
+  MapBuilder(const SensorRig& rig, const MapBuilderOptions& options, uint64_t mission_seed,
+             const std::string& mission_name = "");
+  ~MapBuilder();
+
+  void AddImu(const ImuSample& sample);
+
+  // `images`: one per rig camera (an empty cv::Mat: no image of that camera in this frame;
+  // cameras not in options.cameras are ignored), 8-bit grey. Returns true when the frame became
+  // a vertex. Frames must come in increasing time; others are rejected (counted).
+  bool AddFrame(const FrameState& state, const std::vector<cv::Mat>& images);
+  // True when a frame at t_ns would become a vertex (so a caller can skip loading or copying
+  // images of frames that would be dropped by the vertex rate).
+  bool WantsFrame(int64_t t_ns) const;
+
+  // The mission header plus vertices and completed edges new since the last call; after
+  // Finish() also the landmarks and the vertices whose landmark ids changed.
+  mapstore::MissionDelta TakeDelta();
+
+  // Triangulates and evaluates the landmarks, completes a pending IMU edge, marks the mission
+  // complete. Call once; later AddImu/AddFrame calls are ignored.
+  const mapstore::VIMap& Finish();
+
+  const mapstore::VIMap& map() const { return map_; }
+  // Moves the map out (after Finish()); the builder is then unusable.
+  mapstore::VIMap ReleaseMap() { return std::move(map_); }
+  const mapstore::MissionId& mission_id() const { return mission_id_; }
+  const MapBuilderStats& stats() const { return stats_; }
+  const MapBuilderOptions& options() const { return options_; }
+
+ private:
+  struct PendingEdge {
+    mapstore::VertexId from, to;
+    int64_t t_from = 0, t_to = 0;
+  };
+  // Rotation R_Ia_Ib of the IMU between t_a and t_b from the buffered gyroscope (bias removed);
+  // the samples beyond the newest one are held.
+  Eigen::Quaterniond IntegrateGyro(int64_t t_a, int64_t t_b, const Eigen::Vector3d& b_g) const;
+  // Completes pending edges whose end sample has arrived (all of them when `hold_last`).
+  void CompletePendingEdges(bool hold_last);
+  ImuSample SampleAt(int64_t t_ns) const;
+  void TrimImuBuffer();
+
+  SensorRig rig_;
+  MapBuilderOptions options_;
+  std::vector<int> cameras_;  // rig camera indices with features
+  mapstore::MissionId mission_id_;
+  mapstore::IdGenerator ids_;
+  mapstore::VIMap map_;
+  std::vector<std::unique_ptr<localizer::FeatureTracker>> trackers_;  // per rig camera
+
+  std::deque<ImuSample> imu_;  // from the last sample at or before the oldest needed time
+  bool has_vertex_ = false;
+  mapstore::VertexId last_vertex_id_;
+  int64_t last_vertex_t_ns_ = 0;
+  int64_t last_frame_t_ns_ = 0;
+  bool has_frame_ = false;
+  std::deque<PendingEdge> pending_edges_;
+  bool finished_ = false;
+
+  // Delta bookkeeping (ids in creation order).
+  std::vector<mapstore::VertexId> delta_vertices_;
+  std::vector<mapstore::EdgeId> delta_edges_;
+  std::vector<mapstore::LandmarkId> delta_landmarks_;
+
+  MapBuilderStats stats_;
+};
+
+}  // namespace vilma::mapping

@@ -1,0 +1,62 @@
+// Options of the map builder (docs/mapping.md): vertex rate, cameras, keyframe features,
+// triangulation and landmark quality (maplab's "elq" rules). Plain structs with in-class
+// defaults, checked by Validate(); read strictly from YAML (config/map_builder.yaml): unknown
+// and missing keys are errors.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "vilma/core/yaml_io.h"
+#include "vilma/localizer/feature_options.h"
+
+namespace vilma::mapping {
+
+// Landmark triangulation: linear least-squares ray intersection (midpoint of N rays), then
+// Gauss-Newton on the reprojection error in pixels.
+struct TriangulationOptions {
+  int max_iterations = 10;           // Gauss-Newton iterations at most (0: linear only)
+  double convergence_step_m = 1e-6;  // stop when the update is shorter than this [m]
+  // Keypoint noise used for the landmark covariance (sigma^2 (J^T J)^-1) [px].
+  double keypoint_sigma_px = 1.0;
+  std::string Validate() const;
+};
+
+// Landmark quality, as maplab's vi_map_helpers "evaluate landmark quality" (elq): a landmark is
+// good when all of these hold, otherwise bad (the first failing rule is counted).
+struct LandmarkQualityOptions {
+  int min_observers = 4;  // observations (keyframes x cameras) at least
+  // Largest angle between two observation rays at the landmark at least this [deg]: the
+  // parallax that makes the depth observable (maplab: elq_min_observation_angle_deg = 5).
+  double min_observation_angle_deg = 5.0;
+  double min_distance_m = 0.05;  // to the closest observing camera at least [m]
+  double max_distance_m = 40.0;  // to the closest observing camera at most [m]
+  // Root mean square reprojection error over the observations at most [px].
+  double max_reprojection_error_px = 3.0;
+  std::string Validate() const;
+};
+
+struct MapBuilderOptions {
+  // A vertex per synchronized frame, at most this often [Hz]; 0: every frame. A frame becomes
+  // a vertex when at least 0.9 / rate has passed since the previous vertex (10 % slack for
+  // time stamp jitter, so that a 20 Hz camera gives exactly every other frame at 10 Hz).
+  double vertex_rate_hz = 10.0;
+  // Rig camera indices whose images get keyframe features; empty: every camera of the rig.
+  std::vector<int> cameras;
+  localizer::KeyframeFeatureOptions features;
+  TriangulationOptions triangulation;
+  LandmarkQualityOptions landmark_quality;
+  // Empty when valid, else "field: expectation" (field path with sections).
+  std::string Validate() const;
+};
+
+// Strict readers (every key required, unknown keys are errors); throw InputError naming the
+// file, the key and the expectation (also for Validate() failures).
+MapBuilderOptions ReadMapBuilderOptions(const YamlNode& node);
+MapBuilderOptions ParseMapBuilderOptions(const std::string& yaml_text,
+                                         const std::string& source_name);
+MapBuilderOptions LoadMapBuilderOptions(const std::string& path);
+// YAML text that ReadMapBuilderOptions reads back to the same options.
+std::string MapBuilderOptionsToYaml(const MapBuilderOptions& options);
+
+}  // namespace vilma::mapping

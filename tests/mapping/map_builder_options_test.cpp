@@ -1,0 +1,74 @@
+#include "vilma/mapping/map_builder_options.h"
+
+#include <catch2/catch.hpp>
+#include <string>
+
+#include "vilma/core/error.h"
+
+using vilma::InputError;
+using namespace vilma::mapping;
+
+namespace {
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  REQUIRE(at != std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+
+}  // namespace
+
+TEST_CASE("map builder options: defaults are valid and config/map_builder.yaml holds them",
+          "[mapping]") {
+  const MapBuilderOptions defaults;
+  CHECK(defaults.Validate().empty());
+  const MapBuilderOptions file =
+      LoadMapBuilderOptions(std::string(VILMA_SOURCE_DIR) + "/config/map_builder.yaml");
+  CHECK(MapBuilderOptionsToYaml(file) == MapBuilderOptionsToYaml(defaults));
+}
+
+TEST_CASE("map builder options: YAML round trip", "[mapping]") {
+  MapBuilderOptions o;
+  o.vertex_rate_hz = 7.5;
+  o.cameras = {1, 0};
+  o.features.detector.max_keypoints = 321;
+  o.triangulation.max_iterations = 3;
+  o.landmark_quality.min_observers = 6;
+  o.landmark_quality.max_reprojection_error_px = 1.25;
+  const MapBuilderOptions back = ParseMapBuilderOptions(MapBuilderOptionsToYaml(o), "t.yaml");
+  CHECK(back.vertex_rate_hz == 7.5);
+  CHECK(back.cameras == std::vector<int>{1, 0});
+  CHECK(back.features.detector.max_keypoints == 321);
+  CHECK(back.triangulation.max_iterations == 3);
+  CHECK(back.landmark_quality.min_observers == 6);
+  CHECK(back.landmark_quality.max_reprojection_error_px == 1.25);
+  CHECK(MapBuilderOptionsToYaml(back) == MapBuilderOptionsToYaml(o));
+}
+
+TEST_CASE("map builder options: strict reading names file and key", "[mapping]") {
+  const std::string good = MapBuilderOptionsToYaml(MapBuilderOptions());
+  // Unknown key.
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(good + "extra: 1\n", "m.yaml"),
+                    Catch::Contains("m.yaml") && Catch::Contains("extra"));
+  CHECK_THROWS_WITH(
+      ParseMapBuilderOptions(
+          Replace(good, "  min_observers: 4\n", "  min_observers: 4\n  bogus: 2\n"), "m.yaml"),
+      Catch::Contains("bogus"));
+  // Missing key.
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "  min_distance_m: 0.05\n", ""), "m.yaml"),
+                    Catch::Contains("min_distance_m"));
+  // Validate failures name the field path.
+  CHECK_THROWS_WITH(
+      ParseMapBuilderOptions(Replace(good, "vertex_rate_hz: 10", "vertex_rate_hz: -1"), "m.yaml"),
+      Catch::Contains("vertex_rate_hz"));
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(
+                        Replace(good, "  max_distance_m: 40", "  max_distance_m: 0.01"), "m.yaml"),
+                    Catch::Contains("landmark_quality.max_distance_m"));
+  CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: [0, 0]"), "m"),
+                  InputError);
+  CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: 3"), "m"),
+                  InputError);
+  CHECK_THROWS_WITH(
+      ParseMapBuilderOptions(Replace(good, "    max_keypoints: 600", "    max_keypoints: 0"), "m"),
+      Catch::Contains("features.detector.max_keypoints"));
+}
