@@ -1,0 +1,255 @@
+// vilma-mapstored: receives mission streams on VILMA_MISSION, journals them (fsync before ack),
+// acknowledges on VILMA_MISSION_ACK and finalizes map folders under --root (docs/mapstore.md).
+#include <lcm/lcm-cpp.hpp>
+#include <signal.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <iostream>
+#include <string>
+
+#include <vilma/status_t.hpp>
+
+#include "vilma/drivers/lcm_url.h"
+#include "vilma/core/error.h"
+#include "vilma/core/yaml_io.h"
+#include "vilma/mapstore/stream/map_store_server.h"
+
+#ifdef VILMA_HAVE_SYSTEMD
+#include <systemd/sd-daemon.h>
+#endif
+
+namespace {
+
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop = true; }
+
+constexpr const char kUsage[] =
+    "usage: vilma-mapstored --root DIR [--lcm-url URL] [--channel-suffix S] [--config FILE]\n"
+    "\n"
+    "Receives mission streams (VILMA_MISSION), journals every chunk with fsync before it is\n"
+    "acknowledged (VILMA_MISSION_ACK) and writes each finished mission as a map folder\n"
+    "<DIR>/<mission name>/. Open missions are recovered from <DIR>/.journal on start.\n"
+    "Health on VILMA_STATUS at 1 Hz. SIGTERM/SIGINT: journal what arrived, exit 0.\n"
+    "\n"
+    "  --root DIR           map folders and journals (created if needed)\n"
+    "  --lcm-url URL        LCM provider (default $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)\n"
+    "  --channel-suffix S   appended to every channel name (VILMA_MISSION_S ...)\n"
+    "  --config FILE        YAML with any of (defaults shown):\n"
+    "                         incomplete_timeout_s: 0     # finalize a silent mission as\n"
+    "                                                     # incomplete after this [s]; 0 never\n"
+    "                         finalize_incomplete_at_shutdown: false\n"
+    "                         max_reorder_chunks: 1024\n"
+    "                         max_ack_batch: 256          # chunks per fsync + ack\n"
+    "  --help               this text\n";
+
+struct Config {
+  vilma::mapstore::MapStoreServerOptions server;
+  int max_ack_batch = 256;  // chunks handled between two fsync+ack rounds
+};
+
+Config LoadConfig(const std::string& path) {
+  Config c;
+  if (path.empty()) return c;
+  const vilma::YamlNode yaml = vilma::YamlNode::LoadFile(path);
+  c.server.incomplete_timeout_s = yaml.GetOr<double>("incomplete_timeout_s", 0.0);
+  c.server.finalize_incomplete_at_shutdown = yaml.GetOr<bool>("finalize_incomplete_at_shutdown", false);
+  c.server.max_reorder_chunks = yaml.GetOr<int>("max_reorder_chunks", 1024);
+  c.max_ack_batch = yaml.GetOr<int>("max_ack_batch", 256);
+  yaml.CheckNoUnknownKeys();
+  if (c.max_ack_batch < 1) yaml.Fail("max_ack_batch", "an integer >= 1");
+  if (c.server.incomplete_timeout_s < 0) yaml.Fail("incomplete_timeout_s", "a number >= 0");
+  return c;
+}
+
+void Log(const std::string& text) {
+  std::fprintf(stderr, "vilma-mapstored: %s\n", text.c_str());
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string root, url, suffix, config_path;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&](std::string* out) {
+      if (i + 1 >= argc) {
+        std::cerr << "vilma-mapstored: " << a << " needs a value\n" << kUsage;
+        std::exit(2);
+      }
+      *out = argv[++i];
+    };
+    if (a == "--help" || a == "-h") {
+      std::cout << kUsage;
+      return 0;
+    } else if (a == "--root") {
+      value(&root);
+    } else if (a == "--lcm-url") {
+      value(&url);
+    } else if (a == "--channel-suffix") {
+      value(&suffix);
+    } else if (a == "--config") {
+      value(&config_path);
+    } else {
+      std::cerr << "vilma-mapstored: unknown argument " << a << "\n" << kUsage;
+      return 2;
+    }
+  }
+  if (root.empty()) {
+    std::cerr << "vilma-mapstored: --root DIR is required\n" << kUsage;
+    return 2;
+  }
+  Config config;
+  try {
+    config = LoadConfig(config_path);
+  } catch (const vilma::InputError& e) {
+    std::cerr << "vilma-mapstored: " << e.what() << "\n";
+    return 2;
+  }
+  config.server.root = root;
+  const std::string chunk_channel = vilma::ChannelName("VILMA_MISSION", suffix);
+  const std::string ack_channel = vilma::ChannelName("VILMA_MISSION_ACK", suffix);
+  const std::string status_channel = vilma::ChannelName("VILMA_STATUS", suffix);
+  for (const std::string& c : {chunk_channel, ack_channel, status_channel}) {
+    const std::string error = vilma::ValidateChannelName(c);
+    if (!error.empty()) {
+      std::cerr << "vilma-mapstored: --channel-suffix: " << error << "\n";
+      return 2;
+    }
+  }
+  // Chunks arrive in bursts of up to max_in_flight_chunks: a large receive buffer (lcm_url.h).
+  const std::string lcm_url = vilma::WithDefaultRecvBufSize(vilma::ResolveLcmUrl(url));
+  lcm::LCM lcm(lcm_url);
+  if (!lcm.good()) {
+    std::cerr << "vilma-mapstored: cannot open LCM provider " << lcm_url << "\n";
+    return 1;
+  }
+  struct sigaction sa;
+  std::memset(&sa, 0, sizeof(sa));
+  sa.sa_handler = OnSignal;
+  ::sigaction(SIGTERM, &sa, nullptr);
+  ::sigaction(SIGINT, &sa, nullptr);
+
+  std::unique_ptr<vilma::mapstore::MapStoreServer> server;
+  try {
+    server = std::make_unique<vilma::mapstore::MapStoreServer>(
+        config.server,
+        [&](const vilma::mission_ack_t& ack) { lcm.publish(ack_channel, &ack); }, Log);
+    server->Start();
+  } catch (const std::exception& e) {
+    std::cerr << "vilma-mapstored: " << e.what() << "\n";
+    return 1;
+  }
+  uint64_t handler_errors = 0;
+  struct Context {
+    vilma::mapstore::MapStoreServer* server;
+    int handled;
+    uint64_t* errors;
+  } context{server.get(), 0, &handler_errors};
+  lcm::Subscription* subscription = lcm.subscribeFunction(
+      chunk_channel,
+      +[](const lcm::ReceiveBuffer*, const std::string&, const vilma::mission_chunk_t* chunk,
+          Context* ctx) {
+        ++ctx->handled;
+        try {  // handlers never throw into LCM
+          ctx->server->OnChunk(*chunk);
+        } catch (const std::exception& e) {
+          ++*ctx->errors;
+          Log(std::string("chunk handler error: ") + e.what());
+        }
+      },
+      &context);
+  // LCM drops messages beyond a subscription's queue capacity (default 30): room for a full
+  // flight of chunks from several senders.
+  subscription->setQueueCapacity(4096);
+  Log("root " + root + ", LCM " + lcm_url + ", channels " + chunk_channel + " / " + ack_channel +
+      ", incomplete_timeout_s " + std::to_string(config.server.incomplete_timeout_s) +
+      ", max_ack_batch " + std::to_string(config.max_ack_batch) + "; ready");
+#ifdef VILMA_HAVE_SYSTEMD
+  sd_notify(0, "READY=1");
+#endif
+
+  auto publish_status = [&](int32_t state, const std::string& message) {
+    const auto& c = server->counters();
+    vilma::status_t s;
+    s.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                  std::chrono::system_clock::now().time_since_epoch())
+                  .count();
+    s.node = "vilma-mapstored";
+    s.state = state;
+    s.message = message;
+    const std::pair<const char*, uint64_t> counters[] = {
+        {"missions_open", server->missions_open()},
+        {"missions_completed", c.missions_completed},
+        {"missions_incomplete", c.missions_incomplete},
+        {"missions_recovered", c.missions_recovered},
+        {"chunks_received", c.chunks_received},
+        {"chunks_journaled", c.chunks_journaled},
+        {"chunks_duplicate", c.chunks_duplicate},
+        {"chunks_out_of_order", c.chunks_out_of_order},
+        {"chunks_malformed", c.chunks_malformed},
+        {"chunks_unknown_mission", c.chunks_unknown_mission},
+        {"bytes_journaled", c.bytes_journaled},
+        {"acks_sent", c.acks_sent},
+        {"fsyncs", c.fsyncs},
+        {"disk_full_errors", c.disk_full_errors},
+        {"io_errors", c.io_errors},
+        {"finalize_errors", c.finalize_errors},
+        {"handler_errors", handler_errors}};
+    for (const auto& kv : counters) {
+      s.counter_names.push_back(kv.first);
+      s.counter_values.push_back(static_cast<int64_t>(kv.second));
+    }
+    s.num_counters = static_cast<int32_t>(s.counter_names.size());
+    s.num_metrics = 0;
+    lcm.publish(status_channel, &s);
+  };
+
+  auto next_status = std::chrono::steady_clock::now();
+  while (!g_stop) {
+    // Handle what is waiting (up to a batch), then one fsync per journal and one ack each.
+    context.handled = 0;
+    if (lcm.handleTimeout(20) > 0) {
+      while (context.handled < config.max_ack_batch && !g_stop && lcm.handleTimeout(0) > 0) {
+      }
+    }
+    try {
+      server->Flush();
+      server->FinalizeStale();
+    } catch (const std::exception& e) {
+      ++handler_errors;
+      Log(std::string("error: ") + e.what());
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (now >= next_status) {
+      const auto& c = server->counters();
+      const bool degraded = c.disk_full_errors + c.io_errors + c.finalize_errors > 0;
+      publish_status(degraded ? int32_t{vilma::status_t::DEGRADED} : int32_t{vilma::status_t::OK},
+                     degraded ? "storage errors (see counters)" : "ok");
+#ifdef VILMA_HAVE_SYSTEMD
+      sd_notify(0, "WATCHDOG=1");
+#endif
+      next_status = now + std::chrono::seconds(1);
+    }
+  }
+  Log("stopping");
+#ifdef VILMA_HAVE_SYSTEMD
+  sd_notify(0, "STOPPING=1");
+#endif
+  try {
+    server->Shutdown();
+  } catch (const std::exception& e) {
+    Log(std::string("error at shutdown: ") + e.what());
+  }
+  publish_status(vilma::status_t::STOPPING, "stopped");
+  const auto& c = server->counters();
+  Log("stopped: " + std::to_string(server->missions_open()) + " missions left open in journals; " +
+      std::to_string(c.chunks_received) + " chunks received, " + std::to_string(c.chunks_journaled) +
+      " journaled, " + std::to_string(c.chunks_duplicate) + " duplicate, " +
+      std::to_string(c.chunks_out_of_order) + " out of order, " + std::to_string(c.fsyncs) +
+      " fsyncs, " + std::to_string(c.acks_sent) + " acks");
+  return 0;
+}
