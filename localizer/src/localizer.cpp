@@ -1,0 +1,294 @@
+#include "vilma/localizer/localizer.h"
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <numeric>
+#include <sstream>
+#include <unordered_map>
+
+#include "vilma/core/error.h"
+#include "vilma/core/yaml_io.h"
+
+namespace vilma::localizer {
+namespace {
+
+double MsSince(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+}
+
+template <typename T>
+void Read(const YamlNode& node, const char* key, T* value) {
+  *value = node.GetOr<T>(key, *value);
+}
+void Read(const YamlNode& node, const char* key, uint64_t* value) {
+  const int64_t v = node.GetOr<int64_t>(key, static_cast<int64_t>(*value));
+  if (v < 0) node.Fail(key, "expected a non-negative seed");
+  *value = static_cast<uint64_t>(v);
+}
+
+struct UnionFind {
+  std::vector<uint32_t> parent;
+  explicit UnionFind(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0u); }
+  uint32_t Find(uint32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  }
+  void Union(uint32_t a, uint32_t b) {
+    a = Find(a);
+    b = Find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);
+  }
+};
+
+}  // namespace
+
+std::string MatchingOptions::Validate() const {
+  if (max_hamming_distance < 0 || max_hamming_distance > 512) {
+    return "max_hamming_distance: expected 0..512";
+  }
+  if (max_landmarks_per_keypoint < 1) return "max_landmarks_per_keypoint: expected >= 1";
+  if (min_matches < 4) return "min_matches: expected >= 4";
+  return "";
+}
+
+std::string LocalizerOptions::Validate() const {
+  const std::pair<const char*, std::string> checks[] = {
+      {"map", map.Validate()},           {"projection", projection.Validate()},
+      {"index", index.Validate()},       {"matching", matching.Validate()},
+      {"ransac", ransac.Validate()}};
+  for (const auto& [section, error] : checks) {
+    if (!error.empty()) return std::string(section) + "." + error;
+  }
+  return "";
+}
+
+LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::string& source) {
+  const YamlNode root = YamlNode::LoadString(yaml_text, source);
+  LocalizerOptions o;
+  if (!root.IsMap()) root.Fail("", "expected a map of sections");
+  if (root.Has("map")) {
+    const YamlNode n = root.Child("map");
+    Read(n, "max_descriptors_per_landmark", &o.map.max_descriptors_per_landmark);
+    Read(n, "min_observations", &o.map.min_observations);
+    n.CheckNoUnknownKeys();
+  }
+  if (root.Has("projection")) {
+    const YamlNode n = root.Child("projection");
+    Read(n, "dimensions", &o.projection.dimensions);
+    Read(n, "max_pairs", &o.projection.max_pairs);
+    Read(n, "regularization", &o.projection.regularization);
+    Read(n, "seed", &o.projection.seed);
+    n.CheckNoUnknownKeys();
+  }
+  if (root.Has("index")) {
+    const YamlNode n = root.Child("index");
+    Read(n, "codebook_size", &o.index.codebook_size);
+    Read(n, "kmeans_iterations", &o.index.kmeans_iterations);
+    Read(n, "kmeans_max_samples", &o.index.kmeans_max_samples);
+    Read(n, "seed", &o.index.seed);
+    Read(n, "min_neighbors", &o.index.min_neighbors);
+    Read(n, "max_neighbors", &o.index.max_neighbors);
+    Read(n, "descriptors_per_extra_neighbor", &o.index.descriptors_per_extra_neighbor);
+    Read(n, "candidates_per_neighbor", &o.index.candidates_per_neighbor);
+    n.CheckNoUnknownKeys();
+  }
+  if (root.Has("matching")) {
+    const YamlNode n = root.Child("matching");
+    Read(n, "max_hamming_distance", &o.matching.max_hamming_distance);
+    Read(n, "max_landmarks_per_keypoint", &o.matching.max_landmarks_per_keypoint);
+    Read(n, "covisibility_filter", &o.matching.covisibility_filter);
+    Read(n, "min_matches", &o.matching.min_matches);
+    n.CheckNoUnknownKeys();
+  }
+  if (root.Has("ransac")) {
+    const YamlNode n = root.Child("ransac");
+    Read(n, "threshold_px", &o.ransac.threshold_px);
+    Read(n, "max_iterations", &o.ransac.max_iterations);
+    Read(n, "probability", &o.ransac.probability);
+    Read(n, "min_inliers", &o.ransac.min_inliers);
+    Read(n, "refine_iterations", &o.ransac.refine_iterations);
+    Read(n, "keypoint_sigma_px", &o.ransac.keypoint_sigma_px);
+    Read(n, "seed", &o.ransac.seed);
+    n.CheckNoUnknownKeys();
+  }
+  root.CheckNoUnknownKeys();
+  const std::string error = o.Validate();
+  if (!error.empty()) {
+    const std::size_t colon = error.find(": ");
+    throw InputError(FormatInputError(source, error.substr(0, colon), error.substr(colon + 2)));
+  }
+  return o;
+}
+
+LocalizerOptions LoadLocalizerOptions(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(FormatInputError(path, "", "expected a readable YAML file"));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ParseLocalizerOptions(ss.str(), path);
+}
+
+const char* LocalizationStatusName(LocalizationStatus status) {
+  switch (status) {
+    case LocalizationStatus::kOk: return "ok";
+    case LocalizationStatus::kNoKeypoints: return "no_keypoints";
+    case LocalizationStatus::kNoDescriptorMatches: return "no_descriptor_matches";
+    case LocalizationStatus::kTooFewMatches: return "too_few_matches";
+    case LocalizationStatus::kRansacFailed: return "ransac_failed";
+    case LocalizationStatus::kTooFewInliers: return "too_few_inliers";
+    case LocalizationStatus::kNumStatuses: break;
+  }
+  return "unknown";
+}
+
+std::string LocalizerStats::ToString() const {
+  std::ostringstream ss;
+  ss << "queries " << queries;
+  for (int s = 0; s < static_cast<int>(LocalizationStatus::kNumStatuses); ++s) {
+    ss << ", " << LocalizationStatusName(static_cast<LocalizationStatus>(s)) << " "
+       << status_counts[s];
+  }
+  return ss.str();
+}
+
+std::vector<int> LargestCovisibleComponent(const LocalizationMap& map,
+                                           const std::vector<Match2D3D>& matches) {
+  std::vector<int> keep;
+  if (matches.empty()) return keep;
+  // Nodes: matched landmarks (dense 0..m-1). Landmarks sharing an observer vertex are joined.
+  std::unordered_map<uint32_t, uint32_t> node_of;
+  for (const Match2D3D& m : matches) node_of.emplace(m.landmark, static_cast<uint32_t>(node_of.size()));
+  UnionFind uf(node_of.size());
+  std::unordered_map<uint32_t, uint32_t> first_node_of_observer;
+  for (const auto& [landmark, node] : node_of) {
+    for (uint32_t k = map.observer_begin[landmark]; k < map.observer_begin[landmark + 1]; ++k) {
+      const auto [it, inserted] = first_node_of_observer.emplace(map.observer_index[k], node);
+      if (!inserted) uf.Union(node, it->second);
+    }
+  }
+  std::unordered_map<uint32_t, int> size_of_root;
+  for (const Match2D3D& m : matches) ++size_of_root[uf.Find(node_of[m.landmark])];
+  int best_size = 0;
+  uint32_t best_root = 0;
+  for (const Match2D3D& m : matches) {  // first match order breaks ties deterministically
+    const uint32_t root = uf.Find(node_of[m.landmark]);
+    if (size_of_root[root] > best_size) {
+      best_size = size_of_root[root];
+      best_root = root;
+    }
+  }
+  for (std::size_t i = 0; i < matches.size(); ++i) {
+    if (uf.Find(node_of[matches[i].landmark]) == best_root) keep.push_back(static_cast<int>(i));
+  }
+  return keep;
+}
+
+Localizer::Localizer(std::shared_ptr<const LocalizationMap> map, const LocalizerOptions& options)
+    : map_(std::move(map)), options_(options) {
+  const std::string error = options.Validate();
+  if (!error.empty()) throw InputError(FormatInputError("LocalizerOptions", "", error));
+  if (!map_ || map_->num_descriptors() < 2) {
+    throw InputError(FormatInputError("localization map", "descriptors",
+                                      "expected at least 2 descriptors"));
+  }
+  auto t0 = std::chrono::steady_clock::now();
+  if (map_->projection.rows() > 0) {
+    projection_ = map_->projection;
+  } else {
+    projection_ = TrainProjectionMatrix(map_->descriptors, static_cast<int>(map_->descriptor_bytes),
+                                        map_->descriptor_landmark, options.projection);
+  }
+  projection_train_ms_ = MsSince(t0);
+  t0 = std::chrono::steady_clock::now();
+  index_ = DescriptorIndex(projection_, map_->descriptors.data(),
+                           static_cast<int>(map_->descriptor_bytes), map_->num_descriptors(),
+                           options.index);
+  index_build_ms_ = MsSince(t0);
+}
+
+std::vector<Match2D3D> Localizer::Match(const std::vector<Eigen::Vector2d>& keypoints,
+                                        const uint8_t* descriptors, int* num_raw_matches) const {
+  const int bytes = static_cast<int>(map_->descriptor_bytes);
+  std::vector<Match2D3D> matches;
+  std::vector<Match2D3D> per_keypoint;
+  for (std::size_t i = 0; i < keypoints.size(); ++i) {
+    const uint8_t* d = descriptors + i * bytes;
+    per_keypoint.clear();
+    for (const Neighbor& n : index_.Search(d)) {
+      const int h = HammingDistance(d, map_->descriptor(n.index), bytes);
+      if (h > options_.matching.max_hamming_distance) continue;
+      const uint32_t l = map_->descriptor_landmark[n.index];
+      auto it = std::find_if(per_keypoint.begin(), per_keypoint.end(),
+                             [&](const Match2D3D& m) { return m.landmark == l; });
+      if (it == per_keypoint.end()) {
+        per_keypoint.push_back({static_cast<int>(i), l, h});
+      } else {
+        it->hamming = std::min(it->hamming, h);
+      }
+    }
+    std::sort(per_keypoint.begin(), per_keypoint.end(), [](const Match2D3D& a, const Match2D3D& b) {
+      return a.hamming < b.hamming || (a.hamming == b.hamming && a.landmark < b.landmark);
+    });
+    const std::size_t keep =
+        std::min<std::size_t>(per_keypoint.size(), options_.matching.max_landmarks_per_keypoint);
+    matches.insert(matches.end(), per_keypoint.begin(), per_keypoint.begin() + keep);
+  }
+  if (num_raw_matches) *num_raw_matches = static_cast<int>(matches.size());
+  if (!options_.matching.covisibility_filter) return matches;
+  std::vector<Match2D3D> filtered;
+  for (int i : LargestCovisibleComponent(*map_, matches)) filtered.push_back(matches[i]);
+  return filtered;
+}
+
+LocalizationResult Localizer::Localize(const Camera& camera, const Transformation& T_I_C,
+                                       const std::vector<Eigen::Vector2d>& keypoints,
+                                       const uint8_t* descriptors) const {
+  LocalizationResult result;
+  if (keypoints.empty()) {
+    result.status = LocalizationStatus::kNoKeypoints;
+    return result;
+  }
+  auto t0 = std::chrono::steady_clock::now();
+  result.matches = Match(keypoints, descriptors, &result.num_raw_matches);
+  result.match_ms = MsSince(t0);
+  if (result.num_raw_matches == 0) {
+    result.status = LocalizationStatus::kNoDescriptorMatches;
+    return result;
+  }
+  if (static_cast<int>(result.matches.size()) < options_.matching.min_matches) {
+    result.status = LocalizationStatus::kTooFewMatches;
+    return result;
+  }
+  t0 = std::chrono::steady_clock::now();
+  std::vector<Eigen::Vector2d> uv;
+  std::vector<Eigen::Vector3d> p_G;
+  uv.reserve(result.matches.size());
+  p_G.reserve(result.matches.size());
+  for (const Match2D3D& m : result.matches) {
+    uv.push_back(keypoints[m.keypoint]);
+    p_G.push_back(map_->p_G[m.landmark]);
+  }
+  const PoseResult pose = EstimateCameraPose(camera, uv, p_G, options_.ransac);
+  result.pose_ms = MsSince(t0);
+  result.ransac_iterations = pose.ransac_iterations;
+  switch (pose.status) {
+    case PoseStatus::kOk: result.status = LocalizationStatus::kOk; break;
+    case PoseStatus::kTooFewMatches: result.status = LocalizationStatus::kTooFewMatches; break;
+    case PoseStatus::kRansacFailed: result.status = LocalizationStatus::kRansacFailed; break;
+    case PoseStatus::kTooFewInliers: result.status = LocalizationStatus::kTooFewInliers; break;
+  }
+  if (pose.status == PoseStatus::kRansacFailed || pose.status == PoseStatus::kTooFewMatches) {
+    return result;
+  }
+  result.T_G_C = pose.T_G_C;
+  // T_G_I = T_G_C T_C_I; T_G_C Exp(xi_C) T_C_I = T_G_I Exp(Ad_{T_I_C} xi_C).
+  result.T_G_I = pose.T_G_C * T_I_C.inverse();
+  const Matrix6d Ad = T_I_C.Adjoint();
+  result.covariance_I = Ad * pose.covariance_C * Ad.transpose();
+  result.inliers = pose.inliers;
+  result.rms_reprojection_px = pose.rms_reprojection_px;
+  return result;
+}
+
+}  // namespace vilma::localizer

@@ -1,0 +1,124 @@
+#include "vilma/localizer/localization_map.h"
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "vilma/core/error.h"
+
+using namespace vilma;
+using namespace vilma::localizer;
+namespace fs = std::filesystem;
+
+namespace {
+
+// One mission (T_G_M: translation (10, 0, 0), known), `vertices` vertices with one camera of
+// `vertices` keypoints each; landmark l is seen by keypoint l of every vertex; landmark quality
+// alternates good / bad / good / unknown. Keypoint k of vertex v has descriptor bytes 16 v + k.
+mapstore::VIMap MakeMap(int vertices) {
+  mapstore::VIMap map;
+  mapstore::IdGenerator ids(1);
+  mapstore::Mission mission;
+  mission.id = ids.Next();
+  mission.baseframe_known = true;
+  mission.T_G_M = Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(10, 0, 0));
+  map.AddMission(mission);
+  std::vector<mapstore::VertexId> vertex_ids;
+  for (int v = 0; v < vertices; ++v) {
+    mapstore::Vertex vertex;
+    vertex.id = ids.Next();
+    vertex.mission_id = mission.id;
+    vertex.T_M_I = Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, v, 0));
+    mapstore::VisualFrame frame;
+    for (int k = 0; k < vertices; ++k) {
+      frame.keypoints.push_back({});
+      frame.descriptors.insert(frame.descriptors.end(), 64, static_cast<uint8_t>(16 * v + k));
+      frame.track_ids.push_back(k);
+      frame.landmark_ids.emplace_back();
+    }
+    vertex.frames.push_back(frame);
+    vertex_ids.push_back(vertex.id);
+    map.AddVertex(vertex);
+  }
+  const mapstore::LandmarkQuality q[] = {
+      mapstore::LandmarkQuality::kGood, mapstore::LandmarkQuality::kBad,
+      mapstore::LandmarkQuality::kGood, mapstore::LandmarkQuality::kUnknown};
+  for (int l = 0; l < vertices; ++l) {
+    mapstore::Landmark lm;
+    lm.id = ids.Next();
+    lm.store_vertex_id = vertex_ids[0];
+    lm.p_I = Eigen::Vector3d(l, 0, 1);
+    lm.quality = q[l % 4];
+    map.AddLandmark(lm);
+    for (int v = 0; v < vertices; ++v) {
+      map.AddObservation(lm.id, {vertex_ids[v], 0, static_cast<uint32_t>(l)});
+    }
+  }
+  return map;
+}
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+}  // namespace
+
+TEST_CASE("localization map: good landmarks in G with a spread descriptor subset",
+          "[localization]") {
+  const mapstore::VIMap vimap = MakeMap(12);
+  LocalizationMapOptions o;
+  o.max_descriptors_per_landmark = 4;
+  const LocalizationMap map = BuildLocalizationMap(vimap, o);
+  REQUIRE(map.Validate().empty());
+  REQUIRE(map.num_landmarks() == 6);  // landmarks 0, 2, 4, 6, 8, 10 are good
+  CHECK(map.p_G[1].isApprox(Eigen::Vector3d(12, 0, 1)));  // landmark 2: p_I + (10, 0, 0)
+  CHECK(map.observers.size() == 12);
+  CHECK(map.num_descriptors() == 6 * 4);
+  // Observations 0, 4, 7, 11 of 12 (evenly spread, first and last included).
+  for (int j = 0; j < 4; ++j) CHECK(map.descriptor_landmark[4 + j] == 1u);
+  const int expected_vertex[] = {0, 4, 7, 11};
+  for (int j = 0; j < 4; ++j) CHECK(map.descriptor(4 + j)[0] == 16 * expected_vertex[j] + 2);
+  for (uint32_t l = 0; l < 6; ++l) CHECK(map.observer_begin[l + 1] - map.observer_begin[l] == 12);
+  o.min_observations = 13;
+  CHECK(BuildLocalizationMap(vimap, o).num_landmarks() == 0);
+}
+
+TEST_CASE("localization map: save / load round trip and errors naming file and field",
+          "[localization]") {
+  LocalizationMap map = BuildLocalizationMap(MakeMap(8));
+  map.projection = Eigen::MatrixXf::Random(4, 512);
+  const std::string path = (fs::temp_directory_path() / "vilma_locmap_test.vlocmap").string();
+  SaveLocalizationMap(map, path);
+  const LocalizationMap back = LoadLocalizationMap(path);
+  CHECK(back.landmark_ids == map.landmark_ids);
+  CHECK(back.p_G == map.p_G);
+  CHECK(back.observer_begin == map.observer_begin);
+  CHECK(back.observer_index == map.observer_index);
+  CHECK(back.observers == map.observers);
+  CHECK(back.descriptor_landmark == map.descriptor_landmark);
+  CHECK(back.descriptors == map.descriptors);
+  CHECK(back.projection == map.projection);
+  const std::string bytes = ReadAll(path);
+  // Corrupt byte -> checksum; truncated -> checksum; wrong magic; wrong version.
+  auto write = [&](const std::string& b) { std::ofstream(path, std::ios::binary) << b; };
+  std::string corrupt = bytes;
+  corrupt[100] ^= 0x5a;
+  write(corrupt);
+  CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains(path) && Catch::Contains("crc32"));
+  write(bytes.substr(0, bytes.size() / 2));
+  CHECK_THROWS_AS(LoadLocalizationMap(path), InputError);
+  write("not a map at all");
+  CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains("magic"));
+  std::string version = bytes;
+  version[8] = 9;
+  write(version);
+  CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains("version"));
+  fs::remove(path);
+  CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains(path));
+  // An inconsistent map is not written.
+  map.descriptor_landmark.push_back(99);
+  CHECK_THROWS_AS(SaveLocalizationMap(map, path), InputError);
+  CHECK_FALSE(fs::exists(path));
+}

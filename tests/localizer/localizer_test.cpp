@@ -1,0 +1,228 @@
+#include "vilma/localizer/localizer.h"
+
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <random>
+#include <time.h>
+
+#include "vilma/core/asl_dataset.h"
+#include "vilma/core/error.h"
+#include "vilma/core/rig.h"
+#include "vilma/localizer/keyframe_features.h"
+#include "vilma/mapping/map_builder.h"
+
+using namespace vilma;
+using namespace vilma::localizer;
+namespace fs = std::filesystem;
+
+namespace {
+
+double ThreadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(std::min<double>(v.size() - 1, q * (v.size() - 1) + 0.5))];
+}
+
+// Ground-truth state at t (the simulator writes ground truth at the IMU times, which include
+// the frame times); false if there is none.
+bool GroundTruthAt(const AslDataset& ds, int64_t t, GroundTruthState* state) {
+  const auto& gt = ds.ground_truth();
+  const auto it = std::lower_bound(
+      gt.begin(), gt.end(), t, [](const GroundTruthState& g, int64_t tt) { return g.t_ns < tt; });
+  if (it == gt.end() || it->t_ns != t) return false;
+  *state = *it;
+  return true;
+}
+
+// A VI-map of the first `seconds` of a simulated session built by the map builder driven by the
+// GROUND-TRUTH states (so M = W = G, and localization errors are errors against ground truth),
+// with keyframe features of camera 0 only.
+mapstore::VIMap BuildGroundTruthMap(const fs::path& dataset_dir, double seconds) {
+  const AslDataset ds = AslDataset::Open(dataset_dir.string());
+  const SensorRig rig = LoadSensorRig((dataset_dir / "rig.yaml").string());
+  mapping::MapBuilderOptions options;
+  options.cameras = {0};
+  mapping::MapBuilder builder(rig, options, 42, "loc-gt");
+  const auto& imu = ds.imu();
+  std::size_t next_imu = 0;
+  const auto& frames = ds.cameras()[0].frames;
+  const int64_t t_end = frames.front().t_ns + static_cast<int64_t>(seconds * 1e9);
+  for (std::size_t i = 0; i < frames.size() && frames[i].t_ns <= t_end; ++i) {
+    const int64_t t = frames[i].t_ns + rig.cameras[0].time_offset_ns;
+    while (next_imu < imu.size() && imu[next_imu].t_ns <= t) builder.AddImu(imu[next_imu++]);
+    if (next_imu < imu.size()) builder.AddImu(imu[next_imu++]);
+    GroundTruthState g;
+    if (!GroundTruthAt(ds, t, &g)) continue;
+    mapping::FrameState s;
+    s.t_ns = t;
+    s.T_M_I = Transformation(g.q_W_I, g.p_W_I);
+    s.v_M = g.v_W;
+    s.gyro_bias = g.b_g;
+    s.accel_bias = g.b_a;
+    if (!builder.WantsFrame(t)) {
+      builder.AddFrame(s, {});
+      continue;
+    }
+    std::vector<cv::Mat> images(rig.cameras.size());
+    images[0] = AslDataset::LoadImage(frames[i].image_path);
+    builder.AddFrame(s, images);
+  }
+  while (next_imu < imu.size()) builder.AddImu(imu[next_imu++]);
+  builder.Finish();
+  return builder.ReleaseMap();
+}
+
+}  // namespace
+
+TEST_CASE("localizer options: the shipped YAML parses to the defaults", "[localization]") {
+  const LocalizerOptions o =
+      LoadLocalizerOptions(std::string(VILMA_SOURCE_DIR) + "/config/localizer.yaml");
+  const LocalizerOptions d;
+  CHECK(o.map.max_descriptors_per_landmark == d.map.max_descriptors_per_landmark);
+  CHECK(o.projection.dimensions == d.projection.dimensions);
+  CHECK(o.projection.max_pairs == d.projection.max_pairs);
+  CHECK(o.index.codebook_size == d.index.codebook_size);
+  CHECK(o.index.min_neighbors == d.index.min_neighbors);
+  CHECK(o.index.max_neighbors == d.index.max_neighbors);
+  CHECK(o.matching.max_hamming_distance == d.matching.max_hamming_distance);
+  CHECK(o.matching.min_matches == d.matching.min_matches);
+  CHECK(o.ransac.threshold_px == d.ransac.threshold_px);
+  CHECK(o.ransac.min_inliers == d.ransac.min_inliers);
+  CHECK(o.ransac.seed == d.ransac.seed);
+  CHECK(d.Validate().empty());
+}
+
+TEST_CASE("localizer options: unknown keys and bad values name file and key", "[localization]") {
+  CHECK_THROWS_WITH(ParseLocalizerOptions("ransac:\n  threshold_pix: 2\n", "loc.yaml"),
+                    Catch::Contains("loc.yaml") && Catch::Contains("threshold_pix"));
+  CHECK_THROWS_WITH(ParseLocalizerOptions("ransac:\n  threshold_px: -1\n", "loc.yaml"),
+                    Catch::Contains("loc.yaml") && Catch::Contains("ransac.threshold_px"));
+  CHECK_THROWS_WITH(ParseLocalizerOptions("projection:\n  dimensions: 7\n", "loc.yaml"),
+                    Catch::Contains("projection.dimensions"));
+  CHECK_THROWS_WITH(ParseLocalizerOptions("indx: {}\n", "loc.yaml"), Catch::Contains("indx"));
+  CHECK_THROWS_AS(ParseLocalizerOptions("matching:\n  min_matches: many\n", "loc.yaml"),
+                  InputError);
+  CHECK(ParseLocalizerOptions("matching:\n  min_matches: 20\n", "loc.yaml").matching.min_matches ==
+        20);
+}
+
+TEST_CASE("covisibility: the largest component through shared observers is kept",
+          "[localization]") {
+  // Landmarks 0,1,2 share observers (0-1 via vertex 0, 1-2 via vertex 1); 3,4 share vertex 2;
+  // 5 is alone.
+  LocalizationMap map;
+  map.observers.resize(4);
+  const std::vector<std::vector<uint32_t>> obs = {{0}, {0, 1}, {1}, {2}, {2}, {3}};
+  map.observer_begin.push_back(0);
+  for (const auto& o : obs) {
+    map.p_G.emplace_back(0, 0, 0);
+    map.landmark_ids.emplace_back();
+    map.observer_index.insert(map.observer_index.end(), o.begin(), o.end());
+    map.observer_begin.push_back(static_cast<uint32_t>(map.observer_index.size()));
+  }
+  REQUIRE(map.Validate().empty());
+  const std::vector<Match2D3D> matches = {{0, 3, 0}, {1, 0, 0}, {2, 5, 0},
+                                          {3, 2, 0}, {4, 4, 0}, {5, 1, 0}};
+  CHECK(LargestCovisibleComponent(map, matches) == std::vector<int>{1, 3, 5});
+  // Two equal components: the one of the earliest match wins.
+  const std::vector<Match2D3D> tie = {{0, 3, 0}, {1, 0, 0}, {2, 4, 0}, {3, 2, 0}};
+  CHECK(LargestCovisibleComponent(map, tie) == std::vector<int>{0, 2});
+  CHECK(LargestCovisibleComponent(map, {}).empty());
+}
+
+TEST_CASE("localizer: end to end on simulated room sessions (map from room-easy, query room-s2)",
+          "[localization][benchmark]") {
+  const fs::path datasets = "/work/cache/datasets";
+  const fs::path map_set = datasets / "room-easy";
+  const fs::path query_set = datasets / "room-s2";
+  if (!fs::exists(map_set / "rig.yaml") || !fs::exists(query_set / "rig.yaml")) {
+    WARN("SKIPPED: simulated room datasets absent under " << datasets);
+    return;
+  }
+  const double map_seconds = std::getenv("VILMA_LOC_MAP_SECONDS")
+                                 ? std::atof(std::getenv("VILMA_LOC_MAP_SECONDS"))
+                                 : 90.0;
+  auto t0 = std::chrono::steady_clock::now();
+  const mapstore::VIMap vimap = BuildGroundTruthMap(map_set, map_seconds);
+  const double map_build_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  auto loc_map = std::make_shared<LocalizationMap>(BuildLocalizationMap(vimap));
+  REQUIRE(loc_map->num_landmarks() > 100);
+  // Round trip through the file, as the daemon would load it.
+  const std::string path = (fs::temp_directory_path() / "vilma_loc_e2e.vlocmap").string();
+  SaveLocalizationMap(*loc_map, path);
+  loc_map = std::make_shared<LocalizationMap>(LoadLocalizationMap(path));
+  fs::remove(path);
+
+  const LocalizerOptions options;
+  const Localizer localizer(loc_map, options);
+
+  const AslDataset ds = AslDataset::Open(query_set.string());
+  const SensorRig rig = LoadSensorRig((query_set / "rig.yaml").string());
+  const Camera& camera = rig.cameras[0].camera;
+  const Transformation& T_I_C = rig.cameras[0].T_I_C;
+  const FeatureExtractor extractor(mapping::MapBuilderOptions().features);
+  const auto& frames = ds.cameras()[0].frames;
+  LocalizerStats stats;
+  std::vector<double> pos_err, rot_err_deg, query_ms, wall_ms, match_ms, pose_ms;
+  int queries = 0, within = 0;
+  const int stride = std::getenv("VILMA_LOC_STRIDE") ? std::atoi(std::getenv("VILMA_LOC_STRIDE")) : 10;
+  for (std::size_t i = 0; i < frames.size(); i += stride) {
+    GroundTruthState g;
+    if (!GroundTruthAt(ds, frames[i].t_ns + rig.cameras[0].time_offset_ns, &g)) continue;
+    const KeyframeFeatures f = extractor.Extract(AslDataset::LoadImage(frames[i].image_path));
+    std::vector<Eigen::Vector2d> uv;
+    for (const cv::KeyPoint& k : f.keypoints) uv.emplace_back(k.pt.x, k.pt.y);
+    // Query time as CPU time of this thread (one core; the wall time on a shared machine
+    // includes waiting for the CPU).
+    const auto tq = std::chrono::steady_clock::now();
+    const double cpu0 = ThreadCpuMs();
+    const LocalizationResult r = localizer.Localize(camera, T_I_C, uv, f.descriptors.ptr<uint8_t>());
+    query_ms.push_back(ThreadCpuMs() - cpu0);
+    wall_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tq).count());
+    match_ms.push_back(r.match_ms);
+    pose_ms.push_back(r.pose_ms);
+    stats.Add(r);
+    ++queries;
+    if (r.status != LocalizationStatus::kOk) continue;
+    const double e_p = (r.T_G_I.translation() - g.p_W_I).norm();
+    const double e_r = AngleBetween(r.T_G_I.rotation(), g.q_W_I) * 180.0 / M_PI;
+    pos_err.push_back(e_p);
+    rot_err_deg.push_back(e_r);
+    if (e_p <= 0.5) ++within;
+    CHECK(r.covariance_I.allFinite());
+  }
+  REQUIRE(queries > 0);
+  const double recall = static_cast<double>(within) / queries;
+  std::cout << "[localization e2e] map: room-easy first " << map_seconds << " s, ground-truth poses: "
+            << vimap.num_vertices() << " vertices, " << loc_map->num_landmarks() << " landmarks, "
+            << loc_map->num_descriptors() << " descriptors (map build " << map_build_s
+            << " s); projection training " << localizer.projection_train_ms()
+            << " ms, index build " << localizer.index_build_ms() << " ms, k "
+            << localizer.index().k() << "\n"
+            << "[localization e2e] queries room-s2 every " << stride << "th cam0 frame: " << queries
+            << ", localized " << pos_err.size() << ", within 0.5 m " << within << " (recall "
+            << recall << "), median position error " << Percentile(pos_err, 0.5)
+            << " m, p90 " << Percentile(pos_err, 0.9) << " m, median rotation error "
+            << Percentile(rot_err_deg, 0.5) << " deg; query time p50 " << Percentile(query_ms, 0.5)
+            << " ms, p90 " << Percentile(query_ms, 0.9) << " ms (thread CPU); wall p50 "
+            << Percentile(wall_ms, 0.5) << " ms (matching " << Percentile(match_ms, 0.5)
+            << " ms, pose " << Percentile(pose_ms, 0.5) << " ms)\n"
+            << "[localization e2e] " << stats.ToString() << std::endl;
+  CHECK(recall >= 0.8);
+  CHECK(Percentile(pos_err, 0.5) < 0.05);
+  CHECK(Percentile(rot_err_deg, 0.5) < 0.5);
+  CHECK(Percentile(query_ms, 0.5) < 20.0);
+}
