@@ -17,12 +17,13 @@
 
 namespace {
 
-constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2;
+constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2, kExitMapNotSaved = 3;
 
 void PrintHelp() {
   std::cout <<
       "usage: vilma-estimatord [--config daemon.yaml] [--rig rig.yaml] [--lcm-url URL]\n"
-      "                        [--channel-suffix S] [--input-log FILE] [--print-config]\n"
+      "                        [--channel-suffix S] [--input-log FILE] [--save-map DIR]\n"
+      "                        [--print-config]\n"
       "                        [--fault-stall-filter-after N] [--help]\n"
       "\n"
       "Realtime visual-inertial odometry on LCM: subscribes to the camera and IMU channels,\n"
@@ -37,18 +38,23 @@ void PrintHelp() {
       "  --input-log FILE    read an lcm-logger file instead of subscribing: log order, no\n"
       "                      pacing, no drops (blocking), same output on every run; output on\n"
       "                      --lcm-url; exits at the end of the log\n"
+      "  --save-map DIR      build a VI-map mission (map-builder stage, mapping.* options) and\n"
+      "                      save it into DIR (absent or empty) at the end of the log or on\n"
+      "                      SIGTERM; the map builder's Finish and the save come after the\n"
+      "                      pipeline's flush and take longer for long missions (about 1 s\n"
+      "                      per 10 min of mapping; TimeoutStopSec in the systemd unit)\n"
       "  --print-config      print the effective options and exit\n"
       "  --fault-stall-filter-after N   test: the filter thread stalls after N frames\n"
       "                      (the systemd watchdog is then no longer petted)\n"
       "\n"
-      "SIGTERM / SIGINT: stop, flush, exit 0. Exit status: 0 OK, 1 bad input (file, field),\n"
-      "2 bad command line.\n";
+      "SIGTERM / SIGINT: stop, flush, finish the mission, exit 0. Exit status: 0 OK, 1 bad\n"
+      "input (file, field), 2 bad command line, 3 the map could not be saved (--save-map).\n";
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config_path, rig_path, lcm_url, suffix, input_log;
+  std::string config_path, rig_path, lcm_url, suffix, input_log, save_map;
   bool have_url = false, have_suffix = false, print_config = false;
   long long stall_after = -1;
   const std::vector<std::string> args(argv + 1, argv + argc);
@@ -82,6 +88,9 @@ int main(int argc, char** argv) {
         have_suffix = true;
       } else if (a == "--input-log") {
         input_log = next();
+      } else if (a == "--save-map") {
+        save_map = next();
+        if (save_map.empty()) throw std::invalid_argument("--save-map: expected a folder");
       } else if (a == "--print-config") {
         print_config = true;
       } else if (a == "--fault-stall-filter-after") {
@@ -120,6 +129,10 @@ int main(int argc, char** argv) {
     if (have_url) options.lcm_url = lcm_url;
     if (have_suffix) options.channel_suffix = suffix;
     options.input_log = input_log;
+    if (!save_map.empty()) {
+      options.mapping.enabled = true;
+      options.mapping.save_dir = save_map;
+    }
     options.fault_stall_filter_after = stall_after;
     const std::string error = options.Validate();
     if (!error.empty()) {
@@ -163,5 +176,7 @@ int main(int argc, char** argv) {
             << summary.poses_published << " poses published, " << summary.malformed_messages
             << " malformed messages, " << summary.drops << " drops\n"
             << summary.report << std::flush;
+  if (summary.mapping) std::cout << "vilma-estimatord: " << summary.map_report << "\n" << std::flush;
+  if (!summary.map_error.empty()) return kExitMapNotSaved;
   return kExitOk;
 }

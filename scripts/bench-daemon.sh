@@ -12,6 +12,11 @@
 #   VILMA_BUILD_DIR  build folder with bin/vilma-{estimatord,replay,sim,latency-probe}
 #   VILMA_CACHE      where the simulated set is kept (default ~/.cache/vilma)
 #   BENCH_REPEAT     runs (default 1)
+#   BENCH_MAPPING    1: run the daemon with map building (--save-map into a scratch folder) and
+#                    add the map columns: vertices, vertex rate sustained over the replay,
+#                    frames dropped towards the builder, builder time per vertex, and the
+#                    time from SIGTERM to exit (pipeline flush + Finish + save)
+#                    (docs/benchmarks.md "Map building in the daemon")
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -20,6 +25,7 @@ cache=${VILMA_CACHE:-$HOME/.cache/vilma}
 seconds=${1:-30}
 preset=${2:-room}
 repeat=${BENCH_REPEAT:-1}
+mapping=${BENCH_MAPPING:-0}
 bin=$build_dir/bin
 for exe in vilma-estimatord vilma-replay vilma-sim vilma-latency-probe; do
   [ -x "$bin/$exe" ] || { echo "bench-daemon: $bin/$exe not built (set VILMA_BUILD_DIR)" >&2; exit 1; }
@@ -42,13 +48,20 @@ trap cleanup EXIT
 ticks=$(getconf CLK_TCK)
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
 
-echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | daemon CPU (status) | drops | malformed |"
-echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+if [ "$mapping" = 1 ]; then
+  echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | drops | vertices | vertex rate [Hz] | map frames dropped | builder per vertex mean / max [ms] | SIGTERM to exit [s] |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+else
+  echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | daemon CPU (status) | drops | malformed |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+fi
 port=$(( 22000 + $$ % 20000 ))
 for _ in $(seq "$repeat"); do
   port=$((port + 1))
   url="udpm://239.255.76.67:$port?ttl=0"
-  "$bin/vilma-estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" > "$work/daemon.out" 2>&1 &
+  map_args=()
+  if [ "$mapping" = 1 ]; then rm -rf "$work/map"; map_args=(--save-map "$work/map"); fi
+  "$bin/vilma-estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" > "$work/daemon.out" 2>&1 &
   daemon_pid=$!
   "$bin/vilma-latency-probe" --lcm-url "$url" --idle-timeout 2 > "$work/probe.out" 2>&1 &
   probe_pid=$!
@@ -58,7 +71,9 @@ for _ in $(seq "$repeat"); do
   "$bin/vilma-replay" "$dataset" --lcm-url "$url" --quiet > "$work/replay.out" 2>&1
   c1=$(cpu_ticks "$daemon_pid"); t1=$(date +%s.%N)
   wait "$probe_pid"
+  s0=$(date +%s.%N)
   kill -TERM "$daemon_pid"; wait "$daemon_pid" || true; daemon_pid=""
+  s1=$(date +%s.%N)
   cpu=$(awk -v c0="$c0" -v c1="$c1" -v t0="$t0" -v t1="$t1" -v hz="$ticks" \
     'BEGIN {printf "%.0f%%", 100 * (c1 - c0) / hz / (t1 - t0)}')
   get() { awk -v k="$1" '$1 == k {print $2}' "$work/probe.out"; }
@@ -66,7 +81,19 @@ for _ in $(seq "$repeat"); do
   matched=$(awk '$1 == "images" {print $6}' "$work/probe.out")
   frames=$(awk '$1 == "images" {print $4}' "$work/probe.out")
   status_cpu=$(awk '$1 == "status_cpu_load" {printf "%.0f%%", 100 * $2}' "$work/probe.out")
-  printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" "$frames" \
-    "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$status_cpu" "$(get drops)" \
-    "$(get malformed_messages)"
+  if [ "$mapping" = 1 ]; then
+    rep() { awk -v k="$1" '$1 == k {print $2}' "$work/daemon.out"; }
+    vertices=$(rep map_vertices)
+    rate=$(awk -v v="$vertices" -v t0="$t0" -v t1="$t1" 'BEGIN {printf "%.1f", v / (t1 - t0)}')
+    per_vertex=$(awk -v m="$(rep map_vertex_us_mean)" -v x="$(rep map_vertex_us_max)" 'BEGIN {printf "%.1f / %.1f", m / 1000, x / 1000}')
+    stop_s=$(awk -v a="$s0" -v b="$s1" 'BEGIN {printf "%.2f", b - a}')
+    printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" \
+      "$frames" "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$(get drops)" "$vertices" \
+      "$rate" "$(rep map_frames_dropped)" "$per_vertex" "$stop_s"
+    grep '^vilma-estimatord: map:' "$work/daemon.out" >&2 || true
+  else
+    printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" "$frames" \
+      "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$status_cpu" "$(get drops)" \
+      "$(get malformed_messages)"
+  fi
 done

@@ -46,6 +46,42 @@ std::string QueueOptions::Validate() const {
   return "";
 }
 
+std::string MapStreamOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(CheckChannel("mapping.stream.chunk_channel", chunk_channel, false));
+  VILMA_RETURN_IF_ERROR(CheckChannel("mapping.stream.ack_channel", ack_channel, false));
+  if (chunk_channel == ack_channel) {
+    return "mapping.stream.ack_channel: expected a channel other than chunk_channel";
+  }
+  if (delta_vertices < 1) return "mapping.stream.delta_vertices: expected >= 1";
+  if (!(std::isfinite(delta_period_s) && delta_period_s >= 0.01 && delta_period_s <= 3600.0)) {
+    return "mapping.stream.delta_period_s: expected 0.01 .. 3600";
+  }
+  if (!(std::isfinite(end_timeout_s) && end_timeout_s >= 0.0 && end_timeout_s <= 3600.0)) {
+    return "mapping.stream.end_timeout_s: expected 0 .. 3600";
+  }
+  if (!(std::isfinite(retransmit_timeout_s) && retransmit_timeout_s >= 0.001 &&
+        retransmit_timeout_s <= 60.0)) {
+    return "mapping.stream.retransmit_timeout_s: expected 0.001 .. 60";
+  }
+  if (max_window_chunks < 1) return "mapping.stream.max_window_chunks: expected >= 1";
+  return "";
+}
+
+std::string MappingOptions::Validate() const {
+  if (queue_capacity < 16) return "mapping.queue_capacity: expected >= 16";
+  if (max_frames_in_flight < 1) return "mapping.max_frames_in_flight: expected >= 1";
+  if (!save_dir.empty() && !enabled) {
+    return "mapping.save_dir: expected mapping.enabled: true (or --save-map)";
+  }
+  if (stream.enabled && !enabled) {
+    return "mapping.stream.enabled: expected mapping.enabled: true";
+  }
+  const std::string builder_error = map_builder.Validate();
+  if (!builder_error.empty()) return "mapping.map_builder." + builder_error;
+  VILMA_RETURN_IF_ERROR(stream.Validate());
+  return "";
+}
+
 std::string DaemonOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(CheckChannel("channel_suffix", channel_suffix, true));
   if (vio_camera < 0) return "vio_camera: expected >= 0";
@@ -63,6 +99,7 @@ std::string DaemonOptions::Validate() const {
   const std::string sync_error = sync.Validate();
   if (!sync_error.empty()) return "sync." + sync_error;
   VILMA_RETURN_IF_ERROR(estimator.Validate());
+  VILMA_RETURN_IF_ERROR(mapping.Validate());
   return "";
 }
 
@@ -118,6 +155,42 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.sync.time_jump_threshold_ns = sync.Get<int64_t>("time_jump_threshold_ns");
   o.sync.max_pending_frames = sync.Get<int>("max_pending_frames");
   sync.CheckNoUnknownKeys();
+
+  const YamlNode map_node = root.Child("mapping");
+  if (!map_node.IsMap()) root.Fail("mapping", "a map");
+  o.mapping.enabled = map_node.Get<bool>("enabled");
+  // map_builder: a file name ("" = defaults) or the options inline.
+  const YAML::Node builder = map_node.raw()["map_builder"];
+  if (builder.IsDefined() && builder.IsMap()) {
+    o.mapping.map_builder = mapping::ReadMapBuilderOptions(map_node.Child("map_builder"));
+  } else {
+    o.mapping.map_builder_file = Resolve(root.file(), map_node.Get<std::string>("map_builder"));
+    if (!o.mapping.map_builder_file.empty()) {
+      o.mapping.map_builder = mapping::LoadMapBuilderOptions(o.mapping.map_builder_file);
+    }
+  }
+  o.mapping.mission_name = map_node.Get<std::string>("mission_name");
+  {
+    const int64_t seed = map_node.Get<int64_t>("mission_seed");
+    if (seed < 0) map_node.Fail("mission_seed", "an integer >= 0");
+    o.mapping.mission_seed = static_cast<uint64_t>(seed);
+  }
+  o.mapping.save_dir = Resolve(root.file(), map_node.Get<std::string>("save_dir"));
+  o.mapping.queue_capacity = map_node.Get<int>("queue_capacity");
+  o.mapping.max_frames_in_flight = map_node.Get<int>("max_frames_in_flight");
+  const YamlNode stream = map_node.Child("stream");
+  if (!stream.IsMap()) map_node.Fail("stream", "a map");
+  o.mapping.stream.enabled = stream.Get<bool>("enabled");
+  o.mapping.stream.lcm_url = stream.Get<std::string>("lcm_url");
+  o.mapping.stream.chunk_channel = stream.Get<std::string>("chunk_channel");
+  o.mapping.stream.ack_channel = stream.Get<std::string>("ack_channel");
+  o.mapping.stream.delta_vertices = stream.Get<int>("delta_vertices");
+  o.mapping.stream.delta_period_s = stream.Get<double>("delta_period_s");
+  o.mapping.stream.end_timeout_s = stream.Get<double>("end_timeout_s");
+  o.mapping.stream.retransmit_timeout_s = stream.Get<double>("retransmit_timeout_s");
+  o.mapping.stream.max_window_chunks = stream.Get<int>("max_window_chunks");
+  stream.CheckNoUnknownKeys();
+  map_node.CheckNoUnknownKeys();
 
   root.CheckNoUnknownKeys();
   const std::string error = o.Validate();
@@ -178,6 +251,27 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "  imu_gap_threshold_ns: " << o.sync.imu_gap_threshold_ns << "\n"
       << "  time_jump_threshold_ns: " << o.sync.time_jump_threshold_ns << "\n"
       << "  max_pending_frames: " << o.sync.max_pending_frames << "\n"
+      << "mapping:\n"
+      << "  enabled: " << (o.mapping.enabled ? "true" : "false") << "\n"
+      << "  mission_name: " << Quote(o.mapping.mission_name) << "\n"
+      << "  mission_seed: " << o.mapping.mission_seed << "\n"
+      << "  save_dir: " << Quote(o.mapping.save_dir) << "\n"
+      << "  queue_capacity: " << o.mapping.queue_capacity << "\n"
+      << "  max_frames_in_flight: " << o.mapping.max_frames_in_flight << "\n"
+      << "  stream:\n"
+      << "    enabled: " << (o.mapping.stream.enabled ? "true" : "false") << "\n"
+      << "    lcm_url: " << Quote(o.mapping.stream.lcm_url) << "\n"
+      << "    chunk_channel: " << o.mapping.stream.chunk_channel << "\n"
+      << "    ack_channel: " << o.mapping.stream.ack_channel << "\n"
+      << "    delta_vertices: " << o.mapping.stream.delta_vertices << "\n"
+      << "    delta_period_s: " << o.mapping.stream.delta_period_s << "\n"
+      << "    end_timeout_s: " << o.mapping.stream.end_timeout_s << "\n"
+      << "    retransmit_timeout_s: " << o.mapping.stream.retransmit_timeout_s << "\n"
+      << "    max_window_chunks: " << o.mapping.stream.max_window_chunks << "\n"
+      << "  # map builder options"
+      << (o.mapping.map_builder_file.empty() ? " (built-in defaults)" : " from " + o.mapping.map_builder_file) << "\n"
+      << "  map_builder:\n"
+      << Indent(mapping::MapBuilderOptionsToYaml(o.mapping.map_builder), "    ")
       << "# estimator options" << (o.estimator_file.empty() ? " (built-in defaults)" : " from " + o.estimator_file) << "\n"
       << "estimator:\n"
       << Indent(estimator::FilterOptionsToYaml(o.estimator), "  ");

@@ -11,9 +11,12 @@
 #include <cstdarg>
 #include <cstdio>
 #include <ctime>
+#include <deque>
+#include <filesystem>
 #include <limits>
 #include <lcm/lcm-cpp.hpp>
 #include <optional>
+#include <random>
 #include <sstream>
 #include <thread>
 #include <vector>
@@ -32,6 +35,9 @@
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/estimator/filter_state.h"
 #include "vilma/estimator/vio_filter.h"
+#include "vilma/mapping/map_builder.h"
+#include "vilma/mapstore/map_io.h"
+#include "vilma/mapstore/stream/mission_stream_sender.h"
 
 namespace vilma::daemon {
 namespace {
@@ -114,6 +120,26 @@ enum Counter : int {
   kSyncFramesIncomplete,
   kSyncFramesDroppedNoImu,
   kSyncFramesDroppedOverflow,
+  // Map-builder stage (docs/daemon.md "Map building").
+  kMapFramesQueued,    // frames (state + images) handed to the builder
+  kMapFramesThinned,   // tracking frames the builder does not want (vertex rate)
+  kMapFramesDropped,   // live: the builder was behind (mapping.max_frames_in_flight / queue)
+  kMapImuDropped,      // a bug: the queue is sized for tens of seconds of IMU
+  kMapVertices,
+  kMapImuEdges,
+  kMapKeypoints,
+  kMapLandmarks,
+  kMapLandmarksGood,
+  kMapVertexUsMean,    // builder time per vertex [us], mean and max
+  kMapVertexUsMax,
+  kMapDeltas,          // deltas taken for the stream
+  kStreamSent,         // chunks queued (each transmitted once, then resent until acked)
+  kStreamAcked,
+  kStreamRetransmitted,
+  kStreamWindowFull,   // Send()/End() refused: the window was full (the delta waits)
+  kStreamDiskFullAcks,
+  kStreamErrorAcks,
+  kStreamBacklog,      // deltas waiting for window space
   kNumCounters
 };
 
@@ -151,13 +177,36 @@ constexpr std::array<const char*, kNumCounters> kCounterNames = {
     "sync_frames_incomplete",
     "sync_frames_dropped_no_imu",
     "sync_frames_dropped_overflow",
+    "map_frames_queued",
+    "map_frames_thinned",
+    "map_frames_dropped",
+    "map_imu_dropped",
+    "map_vertices",
+    "map_imu_edges",
+    "map_keypoints",
+    "map_landmarks",
+    "map_landmarks_good",
+    "map_vertex_us_mean",
+    "map_vertex_us_max",
+    "map_deltas",
+    "stream_sent",
+    "stream_acked",
+    "stream_retransmitted",
+    "stream_window_full",
+    "stream_disk_full_acks",
+    "stream_error_acks",
+    "stream_backlog",
 };
 
 // Counters that are drops (summed into "drops").
-constexpr std::array<Counter, 8> kDropCounters = {
+constexpr std::array<Counter, 10> kDropCounters = {
     kImagesDroppedPool,     kImagesDroppedInputQueue, kImuDroppedInputQueue,
     kImuDroppedFilterQueue, kFramesDroppedBusy,       kFramesDroppedFilterQueue,
-    kPosesDroppedOutput,    kSyncFramesDroppedOverflow};
+    kPosesDroppedOutput,    kSyncFramesDroppedOverflow, kMapFramesDropped,
+    kMapImuDropped};
+
+// Cameras whose images the map-builder stage can carry per frame (fixed: no allocation).
+constexpr int kMaxMapCameras = 4;
 
 struct InputItem {
   enum class Kind : uint8_t { kImu, kImage };
@@ -179,6 +228,17 @@ struct FilterItem {
   int64_t recv_latency_us = 0;
   int64_t synced_steady_ns = 0;
   cv::Mat image;
+  // With map building: every subscribed camera's image of the frame (pool slots).
+  std::array<cv::Mat, kMaxMapCameras> map_images;
+};
+
+// Filter -> map builder.
+struct MapItem {
+  enum class Kind : uint8_t { kImu, kFrame };
+  Kind kind = Kind::kImu;
+  ImuSample imu;
+  mapping::FrameState state;
+  std::array<cv::Mat, kMaxMapCameras> images;
 };
 
 struct OutputItem {
@@ -216,7 +276,7 @@ struct EstimatorDaemon::Impl {
 
   // ---- shared state ----
   std::atomic<bool> stop{false};
-  std::atomic<bool> input_done{false}, sync_done{false}, filter_done{false};
+  std::atomic<bool> input_done{false}, sync_done{false}, filter_done{false}, map_done{false};
   std::atomic<int> frames_in_flight{0};
   std::array<std::atomic<int64_t>, kNumCounters> counters{};
   std::atomic<int> filter_state{pose_t::INITIALIZING};
@@ -230,11 +290,24 @@ struct EstimatorDaemon::Impl {
   Spsc<InputItem> input_queue;
   Spsc<FilterItem> filter_queue;
   Spsc<OutputItem> output_queue;
-  Wakeup sync_wake, filter_wake, output_wake;
+  std::unique_ptr<Spsc<MapItem>> map_queue;  // with map building only
+  Wakeup sync_wake, filter_wake, output_wake, map_wake;
   // Built in the constructor, so that bad options or rigs throw there (in the caller's thread);
   // then owned by the sync and filter threads. Declared after the pool: destroyed before it.
   std::unique_ptr<SensorSynchronizer> synchronizer;
   std::unique_ptr<estimator::VioFilter> vio_filter;
+
+  // ---- map-builder stage (map thread only, after construction) ----
+  bool mapping_enabled = false;
+  std::unique_ptr<mapping::MapBuilder> builder;
+  std::unique_ptr<lcm::LCM> stream_lcm;  // the mission stream's own LCM, handled by the map thread
+  std::unique_ptr<mapstore::LcmMissionStreamSender> stream;
+  std::atomic<int> map_frames_in_flight{0};
+  // Result of the end of the mission (read after the map thread joined).
+  bool map_saved = false;
+  bool stream_finished = false;
+  std::string map_error;
+  std::string map_report;
 
   // ---- input stage (input thread only) ----
   std::unique_ptr<lcm::LCM> input_lcm;   // live mode
@@ -264,6 +337,12 @@ struct EstimatorDaemon::Impl {
 
   // ---- filter stage ----
   void FilterLoop();
+  void PushMap(const MapItem& item);
+
+  // ---- map-builder stage ----
+  void SetUpMapping();
+  void MapLoop();
+  void CopyMapCounters();
 
   // ---- publisher ----
   void PublishLoop();
@@ -301,13 +380,26 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   }
   // Every slot the synchronizer and the queues can hold at once, plus margin: with fewer, the
   // log mode's blocking input could wait for a slot that only newer input would free.
-  const int needed = num_cameras * (options.sync.max_pending_frames + 2) +
-                     options.queues.max_frames_in_flight + 2;
+  // With map building, a frame queued for the filter holds every camera's image (and the
+  // filter's current frame still holds them while it waits to hand them to the builder), and
+  // the frames queued for the builder (mapping.max_frames_in_flight, the one it works on
+  // included) hold theirs too.
+  mapping_enabled = options.mapping.enabled;
+  const int needed =
+      mapping_enabled
+          ? num_cameras * (options.sync.max_pending_frames + 2 +
+                           options.queues.max_frames_in_flight + 1 +
+                           options.mapping.max_frames_in_flight) + 2
+          : num_cameras * (options.sync.max_pending_frames + 2) +
+                options.queues.max_frames_in_flight + 2;
   if (options.queues.image_pool_slots < needed) {
     throw InputError(FormatInputError(
         "daemon options", "queues.image_pool_slots",
-        ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2 = " +
-            std::to_string(needed)));
+        mapping_enabled
+            ? ">= cameras x (sync.max_pending_frames + max_frames_in_flight + "
+              "mapping.max_frames_in_flight + 3) + 2 = " + std::to_string(needed)
+            : ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2 = " +
+                  std::to_string(needed)));
   }
   pool = std::make_unique<ImagePool>(options.queues.image_pool_slots, slot_bytes);
   try {
@@ -340,6 +432,74 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
     for (const std::string& channel : camera_channels) {
       input_lcm->subscribe(channel, &Impl::OnLcmMessage, this);
     }
+  }
+  if (mapping_enabled) SetUpMapping();
+}
+
+void EstimatorDaemon::Impl::SetUpMapping() {
+  const MappingOptions& m = options.mapping;
+  if (num_cameras > kMaxMapCameras) {
+    throw InputError(FormatInputError("daemon options", "mapping.enabled",
+                                      "at most " + std::to_string(kMaxMapCameras) +
+                                          " cameras in channels.cameras with map building"));
+  }
+  mapping::MapBuilderOptions builder_options = m.map_builder;
+  if (builder_options.cameras.empty()) {
+    // Features in every camera the daemon subscribes to (not the rig's others: no images).
+    for (int c = 0; c < num_cameras; ++c) builder_options.cameras.push_back(c);
+  }
+  for (int c : builder_options.cameras) {
+    if (c < 0 || c >= num_cameras) {
+      throw InputError(FormatInputError(
+          "daemon options", "mapping.map_builder.cameras",
+          "camera indices below " + std::to_string(num_cameras) + " (the subscribed cameras)"));
+    }
+  }
+  if (!m.save_dir.empty()) {
+    // Checked now rather than after an hour of mapping: the folder must not hold a map
+    // (saving would replace it), and must be creatable.
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    if (fs::exists(m.save_dir, ec) &&
+        (!fs::is_directory(m.save_dir, ec) || !fs::is_empty(m.save_dir, ec))) {
+      throw InputError(FormatInputError(m.save_dir, "mapping.save_dir / --save-map",
+                                        "a folder that does not exist yet or is empty"));
+    }
+    fs::create_directories(m.save_dir, ec);
+    if (ec) {
+      throw InputError(FormatInputError(m.save_dir, "mapping.save_dir / --save-map",
+                                        "a folder that can be created (" + ec.message() + ")"));
+    }
+  }
+  uint64_t seed = m.mission_seed;
+  if (seed == 0) {
+    if (log_mode) {
+      seed = 1;
+    } else {
+      std::random_device device;
+      seed = (static_cast<uint64_t>(device()) << 32) ^ device();
+      if (seed == 0) seed = 1;
+    }
+  }
+  builder = std::make_unique<mapping::MapBuilder>(rig, builder_options, seed, m.mission_name);
+  map_queue = std::make_unique<Spsc<MapItem>>(static_cast<std::size_t>(m.queue_capacity));
+  if (m.stream.enabled) {
+    const std::string url =
+        ResolveLcmUrl(m.stream.lcm_url.empty() ? options.lcm_url : m.stream.lcm_url);
+    stream_lcm = std::make_unique<lcm::LCM>(WithDefaultRecvBufSize(url));
+    if (!stream_lcm->good()) {
+      throw InputError(FormatInputError("daemon options", "mapping.stream.lcm_url",
+                                        "an LCM URL that opens (" + url + ")"));
+    }
+    mapstore::MissionStreamSenderOptions sender_options;
+    sender_options.max_window_chunks = static_cast<std::size_t>(m.stream.max_window_chunks);
+    sender_options.retransmit_timeout_s = m.stream.retransmit_timeout_s;
+    sender_options.max_retransmit_timeout_s =
+        std::max(sender_options.max_retransmit_timeout_s, m.stream.retransmit_timeout_s);
+    stream = std::make_unique<mapstore::LcmMissionStreamSender>(
+        stream_lcm.get(), ChannelName(m.stream.chunk_channel, options.channel_suffix),
+        ChannelName(m.stream.ack_channel, options.channel_suffix), builder->mission_id(),
+        m.mission_name, sender_options);
   }
 }
 
@@ -567,6 +727,11 @@ void EstimatorDaemon::Impl::SyncLoop() {
     frame_item.kind = FilterItem::Kind::kFrame;
     frame_item.t_cam_ns = f.t_cam_ns[static_cast<std::size_t>(vio)];
     frame_item.image = image;
+    if (mapping_enabled) {
+      for (int c = 0; c < num_cameras; ++c) {
+        frame_item.map_images[static_cast<std::size_t>(c)] = f.images[static_cast<std::size_t>(c)];
+      }
+    }
     frame_item.synced_steady_ns = SteadyNs();
     frame_item.recv_steady_ns = frame_item.synced_steady_ns;
     for (const Received& r : received) {
@@ -640,6 +805,15 @@ void EstimatorDaemon::Impl::FilterLoop() {
   int64_t frames = 0;
   int64_t resets_before_restart = 0;
   Eigen::Vector3d last_omega = Eigen::Vector3d::Zero();
+  // Thinning towards the map builder, as MapBuilder::WantsFrame (which belongs to the map
+  // thread): a frame is wanted when 0.9 / vertex_rate_hz has passed since the last frame
+  // handed over. The builder receives only the frames it wants, so both agree.
+  const double vertex_rate_hz = options.mapping.map_builder.vertex_rate_hz;
+  const int64_t min_vertex_dt_ns =
+      vertex_rate_hz > 0.0 ? static_cast<int64_t>(0.9e9 / vertex_rate_hz) : 0;
+  bool map_has_vertex = false;
+  int64_t map_last_vertex_ns = 0;
+  MapItem map_item;
   FilterItem item;
   while (true) {
     bool any = false;
@@ -650,6 +824,11 @@ void EstimatorDaemon::Impl::FilterLoop() {
       if (item.kind == FilterItem::Kind::kImu) {
         filter->AddImu(item.imu);
         last_omega = item.imu.omega_I;
+        if (mapping_enabled) {
+          map_item.kind = MapItem::Kind::kImu;
+          map_item.imu = item.imu;
+          PushMap(map_item);
+        }
       } else if (item.kind == FilterItem::Kind::kRestart) {
         resets_before_restart += filter->stats().resets;
         filter = std::make_unique<estimator::VioFilter>(rig, vio, options.estimator);
@@ -675,6 +854,49 @@ void EstimatorDaemon::Impl::FilterLoop() {
         counters[kFilterResets].store(resets_before_restart + filter->stats().resets,
                                       std::memory_order_relaxed);
         if (r.reset) LogLimited(10, "filter reset: %s", r.reset_reason.c_str());
+        if (mapping_enabled && r.pose_valid && !r.reset) {
+          const bool wanted = !map_has_vertex || r.t_ns - map_last_vertex_ns >= min_vertex_dt_ns;
+          if (!wanted) {
+            Count(kMapFramesThinned);
+          } else {
+            bool room = map_frames_in_flight.load() < options.mapping.max_frames_in_flight;
+            if (!room && log_mode) {
+              // Deterministic: wait for the builder (it never waits for the filter).
+              while (map_frames_in_flight.load() >= options.mapping.max_frames_in_flight &&
+                     !stop.load()) {
+                notifier.PetWatchdog(SteadyNs());
+                std::this_thread::sleep_for(std::chrono::microseconds(200));
+              }
+              room = map_frames_in_flight.load() < options.mapping.max_frames_in_flight;
+            }
+            if (!room) {
+              Count(kMapFramesDropped);
+            } else {
+              const estimator::FilterState& x = filter->state();
+              map_item.kind = MapItem::Kind::kFrame;
+              map_item.state.t_ns = r.t_ns;
+              map_item.state.T_M_I = r.T_M_I;
+              map_item.state.v_M = x.v_W;  // the filter's world frame W is the mission frame M
+              map_item.state.gyro_bias = x.b_g;
+              map_item.state.accel_bias = x.b_a;
+              map_item.images = item.map_images;
+              map_frames_in_flight.fetch_add(1);
+              const bool pushed =
+                  log_mode ? PushBlocking(*map_queue, map_item) : map_queue->push(map_item);
+              if (pushed) {
+                map_has_vertex = true;
+                map_last_vertex_ns = r.t_ns;
+                Count(kMapFramesQueued);
+                map_wake.Notify();
+              } else {
+                map_frames_in_flight.fetch_sub(1);
+                Count(kMapFramesDropped);
+              }
+              for (cv::Mat& m : map_item.images) m.release();
+            }
+          }
+        }
+        for (cv::Mat& m : item.map_images) m.release();  // back to the pool
         if (r.pose_valid) ever_initialized = true;
         int32_t status = pose_t::INITIALIZING;
         if (r.reset || (!r.pose_valid && ever_initialized)) {
@@ -739,6 +961,164 @@ void EstimatorDaemon::Impl::FilterLoop() {
     }
   }
   filter_done.store(true);
+  output_wake.Notify();
+  map_wake.Notify();
+}
+
+void EstimatorDaemon::Impl::PushMap(const MapItem& item) {
+  const bool pushed = log_mode ? PushBlocking(*map_queue, item) : map_queue->push(item);
+  if (!pushed) {
+    Count(kMapImuDropped);
+    // (With --input-log a push only fails when a stop request cut the wait short.)
+    if (!log_mode) {
+      LogLimited(11, "BUG: map builder queue full, IMU sample dropped (mapping.queue_capacity)");
+    }
+    return;
+  }
+  map_wake.Notify();
+}
+
+// ---------------------------------------------------------------- map-builder stage
+
+void EstimatorDaemon::Impl::CopyMapCounters() {
+  const mapping::MapBuilderStats& b = builder->stats();
+  auto set = [&](Counter c, int64_t v) { counters[c].store(v, std::memory_order_relaxed); };
+  set(kMapVertices, b.vertices);
+  set(kMapImuEdges, b.imu_edges);
+  set(kMapKeypoints, b.keypoints);
+  set(kMapLandmarks, b.landmarks);
+  set(kMapLandmarksGood, b.landmarks_good);
+  set(kMapVertexUsMean, static_cast<int64_t>(b.vertex_ms_mean() * 1e3));
+  set(kMapVertexUsMax, static_cast<int64_t>(b.vertex_ms_max * 1e3));
+  if (stream) {
+    const mapstore::MissionStreamSenderCounters c = stream->sender().counters();
+    set(kStreamSent, static_cast<int64_t>(c.sent));
+    set(kStreamAcked, static_cast<int64_t>(c.acked));
+    set(kStreamRetransmitted, static_cast<int64_t>(c.retransmitted));
+    set(kStreamWindowFull, static_cast<int64_t>(c.window_full));
+    set(kStreamDiskFullAcks, static_cast<int64_t>(c.disk_full_acks));
+    set(kStreamErrorAcks, static_cast<int64_t>(c.error_acks));
+  }
+}
+
+// The map thread: feeds the builder in the filter's order (IMU samples and the states and
+// images of the frames it wants), streams its deltas, and at the end finishes the mission,
+// ends the stream and saves the map. Live mode: never waited for by the filter (drops are
+// counted there); --input-log: the filter waits for it, so the map is the same on every run.
+void EstimatorDaemon::Impl::MapLoop() {
+  mapping::MapBuilder& b = *builder;
+  const MapStreamOptions& so = options.mapping.stream;
+  std::vector<cv::Mat> images(rig.cameras.size());
+  std::deque<mapstore::MissionDelta> backlog;  // deltas waiting for window space, in order
+  int64_t vertices_at_last_delta = 0;
+  int64_t last_delta_ns = SteadyNs();
+  const int64_t delta_period_ns = SecondsToNs(so.delta_period_s);
+
+  auto take_delta = [&](bool always) {
+    mapstore::MissionDelta delta = b.TakeDelta();
+    if (!always && delta.vertices.empty() && delta.edges.empty() && delta.landmarks.empty()) return;
+    backlog.push_back(std::move(delta));
+    Count(kMapDeltas);
+  };
+  auto service_stream = [&](int timeout_ms) {
+    // Acks (the sender's handler runs in this thread), retransmissions, queued deltas.
+    if (stream_lcm->handleTimeout(timeout_ms) > 0) {
+      while (stream_lcm->handleTimeout(0) > 0) {
+      }
+    }
+    while (!backlog.empty() && stream->sender().Send(backlog.front())) backlog.pop_front();
+    stream->sender().Poll();
+    counters[kStreamBacklog].store(static_cast<int64_t>(backlog.size()), std::memory_order_relaxed);
+  };
+
+  MapItem item;
+  while (true) {
+    bool any = false;
+    while (map_queue->pop(item)) {
+      any = true;
+      if (item.kind == MapItem::Kind::kImu) {
+        b.AddImu(item.imu);
+        continue;
+      }
+      for (std::size_t c = 0; c < images.size() && c < item.images.size(); ++c) {
+        images[c] = item.images[c];
+        item.images[c].release();
+      }
+      b.AddFrame(item.state, images);
+      for (cv::Mat& m : images) m.release();  // back to the pool
+      map_frames_in_flight.fetch_sub(1);
+      CopyMapCounters();
+      if (stream && b.stats().vertices - vertices_at_last_delta >= so.delta_vertices) {
+        take_delta(false);
+        vertices_at_last_delta = b.stats().vertices;
+        last_delta_ns = SteadyNs();
+      }
+    }
+    if (stream) {
+      const int64_t now = SteadyNs();
+      if (b.stats().vertices > vertices_at_last_delta && now - last_delta_ns >= delta_period_ns) {
+        take_delta(false);
+        vertices_at_last_delta = b.stats().vertices;
+        last_delta_ns = now;
+      }
+      service_stream(0);
+      CopyMapCounters();
+    }
+    if (!any) {
+      if (filter_done.load() && map_queue->read_available() == 0) break;
+      if (stream) {
+        service_stream(10);  // waits on the LCM socket (acks) for up to 10 ms
+      } else {
+        map_wake.Wait(50 * kMs);
+      }
+    }
+  }
+
+  // End of the mission: triangulate and evaluate the landmarks, complete the IMU edges.
+  const auto t0 = std::chrono::steady_clock::now();
+  b.Finish();
+  CopyMapCounters();
+  std::ostringstream report;
+  report << "map: " << b.stats().vertices << " vertices, " << b.stats().landmarks << " landmarks ("
+         << b.stats().landmarks_good << " good), finish "
+         << static_cast<int>(b.stats().finish_ms) << " ms";
+  if (stream) {
+    // The last delta (landmarks, changed vertices, complete = true), then END; wait at most
+    // end_timeout_s for mapstored's acknowledgements.
+    take_delta(true);
+    const int64_t deadline = SteadyNs() + SecondsToNs(so.end_timeout_s);
+    while (!backlog.empty() && SteadyNs() < deadline) service_stream(10);
+    const double left_s = std::max(0.0, static_cast<double>(deadline - SteadyNs()) * 1e-9);
+    stream_finished = backlog.empty() && stream->EndAndWait(left_s);
+    CopyMapCounters();
+    const mapstore::MissionStreamSenderCounters c = stream->sender().counters();
+    report << "; stream: " << c.sent << " chunks, " << c.acked << " acked, " << c.retransmitted
+           << " retransmitted, " << (stream_finished ? "mission complete in mapstored"
+                                                     : "NOT acknowledged by mapstored");
+    if (!stream_finished) {
+      std::fprintf(stderr,
+                   "vilma-estimatord: mapstored did not acknowledge the whole mission within "
+                   "mapping.stream.end_timeout_s (%.1f s): %s\n",
+                   so.end_timeout_s, stream->sender().last_message().c_str());
+    }
+  }
+  if (!options.mapping.save_dir.empty()) {
+    try {
+      const mapstore::MapSaveSummary saved = mapstore::SaveMap(b.map(), options.mapping.save_dir);
+      map_saved = true;
+      report << "; saved to " << options.mapping.save_dir << " (" << saved.bytes_written << " B)";
+    } catch (const std::exception& e) {
+      map_error = std::string("saving the map into ") + options.mapping.save_dir + " failed: " + e.what();
+      std::fprintf(stderr, "vilma-estimatord: error: %s\n", map_error.c_str());
+    }
+  }
+  report << "; end of mission took "
+         << static_cast<int>(std::chrono::duration<double, std::milli>(
+                                 std::chrono::steady_clock::now() - t0)
+                                 .count())
+         << " ms";
+  map_report = report.str();
+  map_done.store(true);
   output_wake.Notify();
 }
 
@@ -854,7 +1234,10 @@ void EstimatorDaemon::Impl::PublishLoop() {
       next_status_ns = std::max(next_status_ns + period_ns, now + period_ns / 2);
     }
     if (!any) {
-      if (filter_done.load() && output_queue.read_available() == 0) break;
+      if (filter_done.load() && output_queue.read_available() == 0 &&
+          (!mapping_enabled || map_done.load())) {
+        break;
+      }
       output_wake.Wait(std::min<int64_t>(50 * kMs, std::max<int64_t>(kMs, next_status_ns - now)));
     }
   }
@@ -875,6 +1258,8 @@ DaemonSummary EstimatorDaemon::Run() {
   std::thread publisher([&] { d.PublishLoop(); });
   std::thread filter([&] { d.FilterLoop(); });
   std::thread sync([&] { d.SyncLoop(); });
+  std::thread map_thread;
+  if (d.mapping_enabled) map_thread = std::thread([&] { d.MapLoop(); });
   // Subscribed (constructor) and every stage is up.
   d.notifier.Ready();
   d.notifier.Status(d.log_mode ? "reading " + d.options.input_log : "running");
@@ -883,6 +1268,7 @@ DaemonSummary EstimatorDaemon::Run() {
   if (d.stop.load()) d.notifier.Stopping();
   sync.join();
   filter.join();
+  if (map_thread.joinable()) map_thread.join();
   publisher.join();
   if (!d.stop.load()) d.notifier.Stopping();
   // Close LCM: a file:// provider flushes its file here (the output of an --input-log run).
@@ -900,6 +1286,11 @@ DaemonSummary EstimatorDaemon::Run() {
     report << kCounterNames[static_cast<std::size_t>(i)] << " " << d.Get(static_cast<Counter>(i)) << "\n";
   }
   summary.report = report.str();
+  summary.mapping = d.mapping_enabled;
+  summary.map_saved = d.map_saved;
+  summary.map_error = d.map_error;
+  summary.map_report = d.map_report;
+  summary.stream_finished = d.stream_finished;
   return summary;
 }
 

@@ -79,5 +79,49 @@ TEST_CASE("the estimator options can be given inline") {
   CHECK(o.estimator.features.max_features == 30);
 }
 
+
+TEST_CASE("map building options: strict, validated, read back", "[daemon][mapping]") {
+  const std::string good = DefaultConfigText();
+  const std::string on = Replace(good, "enabled: false          # run", "enabled: true          # run");
+  const DaemonOptions o = ParseDaemonOptions(on, "daemon.yaml");
+  CHECK(o.mapping.enabled);
+  CHECK_FALSE(o.mapping.stream.enabled);
+  CHECK(o.mapping.map_builder.vertex_rate_hz == 10.0);
+  // Streaming or saving without the stage.
+  CHECK_THAT(ErrorOf(Replace(good, "    enabled: false\n    lcm_url", "    enabled: true\n    lcm_url")),
+             Catch::Contains("mapping.stream.enabled"));
+  CHECK_THAT(ErrorOf(Replace(good, "save_dir: \"\"", "save_dir: maps")),
+             Catch::Contains("mapping.save_dir"));
+  CHECK_THAT(ErrorOf(Replace(good, "chunk_channel: VILMA_MISSION ", "chunk_channel: mission ")),
+             Catch::Contains("mapping.stream.chunk_channel"));
+  CHECK_THAT(ErrorOf(Replace(good, "chunk_channel: VILMA_MISSION ", "chunk_channel: VILMA_MISSION_ACK ")),
+             Catch::Contains("mapping.stream.ack_channel"));
+  CHECK_THAT(ErrorOf(Replace(good, "delta_vertices: 10", "delta_vertices: 0")),
+             Catch::Contains("mapping.stream.delta_vertices"));
+  CHECK_THAT(ErrorOf(Replace(good, "end_timeout_s: 5.0", "end_timeout_s: -1")),
+             Catch::Contains("mapping.stream.end_timeout_s"));
+  CHECK_THAT(ErrorOf(Replace(good, "max_frames_in_flight: 2 # frames with", "max_frames_in_flight: 0 #")),
+             Catch::Contains("mapping.max_frames_in_flight"));
+  CHECK_THAT(ErrorOf(Replace(good, "mission_seed: 0", "mission_seed: -3")),
+             Catch::Contains("mission_seed"));
+  CHECK_THAT(ErrorOf(Replace(good, "mission_seed: 0", "mission_seed: 0\n  bogus_key: 1")),
+             Catch::Contains("bogus_key"));
+  CHECK_THAT(ErrorOf(Replace(good, "map_builder: \"\"", "map_builder: {vertex_rate_hz: 10}")),
+             Catch::Contains("map_builder"));
+  CHECK_THAT(ErrorOf(Replace(good, "map_builder: \"\"", "map_builder: no-such-builder.yaml")),
+             Catch::Contains("no-such-builder.yaml"));
+
+  // The effective YAML (builder options inline) reads back.
+  DaemonOptions m = o;
+  m.mapping.stream.enabled = true;
+  m.mapping.mission_name = "lab";
+  m.mapping.mission_seed = 42;
+  m.mapping.map_builder.vertex_rate_hz = 5.0;
+  const DaemonOptions back = ParseDaemonOptions(DaemonOptionsToYaml(m), "effective.yaml");
+  CHECK(DaemonOptionsToYaml(back) == DaemonOptionsToYaml(m));
+  CHECK(back.mapping.map_builder.vertex_rate_hz == 5.0);
+  CHECK(back.mapping.mission_seed == 42);
+}
+
 }  // namespace
 }  // namespace vilma::daemon

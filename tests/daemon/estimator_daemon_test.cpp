@@ -15,6 +15,8 @@
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_log.h"
+#include "vilma/mapstore/consistency.h"
+#include "vilma/mapstore/map_io.h"
 
 namespace vilma::daemon {
 namespace {
@@ -116,6 +118,75 @@ TEST_CASE("the daemon rejects a pool too small for the synchronizer and bad opti
   options = DaemonOptions();
   options.lcm_url = "memq://";
   options.vio_camera = 1;  // the rig has one camera
+  CHECK_THROWS_AS(EstimatorDaemon(options, SmallRig()), InputError);
+}
+
+TEST_CASE("map building: the stage runs a log, saves the mission, drops nothing",
+          "[daemon][mapping]") {
+  const std::string dir = "/tmp/vilma_daemon_map_test_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  DaemonOptions options;
+  options.channels.cameras = {"CAM0"};
+  options.input_log = WriteLog(dir);
+  options.lcm_url = "file://" + dir + "/out.lcm?mode=w";
+  options.mapping.enabled = true;
+  options.mapping.save_dir = dir + "/map";
+  options.mapping.max_frames_in_flight = 1;  // the filter must wait for the builder (log mode)
+  options.mapping.queue_capacity = 16;
+  options.mapping.mission_name = "small";
+  DaemonSummary summary;
+  {
+    EstimatorDaemon daemon(options, SmallRig());
+    summary = daemon.Run();
+  }
+  INFO(summary.report << summary.map_report);
+  CHECK(summary.drops == 0);
+  CHECK(summary.map_saved);
+  CHECK(summary.map_error.empty());
+  const mapstore::VIMap map = mapstore::LoadMap(dir + "/map");
+  REQUIRE(map.mission_ids().size() == 1);
+  const mapstore::Mission& mission = map.mission(map.mission_ids()[0]);
+  CHECK(mission.complete);
+  CHECK(mission.name == "small");
+  // At most 10 Hz over 2 s of frames; only frames with a tracked pose become vertices.
+  CHECK(map.vertex_ids(mission.id).size() <= 21);
+  CHECK(mapstore::CheckMapConsistency(map).ok());
+
+  // A second run into the same folder is refused before anything runs (no silent overwrite).
+  CHECK_THROWS_AS(EstimatorDaemon(options, SmallRig()), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("map building: bad combinations are refused at construction", "[daemon][mapping]") {
+  DaemonOptions options;
+  options.channels.cameras = {"CAM0"};
+  options.lcm_url = "memq://";
+  options.mapping.enabled = true;
+  CHECK_NOTHROW(EstimatorDaemon(options, SmallRig()));
+  options.mapping.map_builder.cameras = {1};  // the daemon subscribes one camera
+  CHECK_THROWS_AS(EstimatorDaemon(options, SmallRig()), InputError);
+  options.mapping.map_builder.cameras.clear();
+  options.queues.image_pool_slots = 1 * (options.sync.max_pending_frames + 2) + 2 + 2;  // enough
+  CHECK_THROWS_AS(EstimatorDaemon(options, SmallRig()), InputError);  // ... without mapping only
+  {
+    // The defaults fit a stereo rig with map building.
+    SensorRig stereo = SmallRig();
+    stereo.cameras.push_back(stereo.cameras[0]);
+    stereo.cameras[1].name = "cam1";
+    DaemonOptions defaults;
+    defaults.lcm_url = "memq://";
+    defaults.mapping.enabled = true;
+    CHECK_NOTHROW(EstimatorDaemon(defaults, stereo));
+  }
+  // Streaming opens its own LCM.
+  options = DaemonOptions();
+  options.channels.cameras = {"CAM0"};
+  options.lcm_url = "memq://";
+  options.mapping.enabled = true;
+  options.mapping.stream.enabled = true;
+  CHECK_NOTHROW(EstimatorDaemon(options, SmallRig()));
+  options.mapping.stream.lcm_url = "nosuchprovider://x";
   CHECK_THROWS_AS(EstimatorDaemon(options, SmallRig()), InputError);
 }
 

@@ -10,6 +10,7 @@
 #include "vilma/core/sensor_sync.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/estimator/filter_options.h"
+#include "vilma/mapping/map_builder_options.h"
 
 namespace vilma::daemon {
 
@@ -42,6 +43,47 @@ struct QueueOptions {
   std::string Validate() const;
 };
 
+// Streaming of the mission to vilma-mapstored (docs/mapstore.md, mission_chunk_t /
+// mission_ack_t): reliable on top of LCM (sequence numbers, acks, retransmission).
+struct MapStreamOptions {
+  bool enabled = false;
+  std::string lcm_url;  // "" = the daemon's lcm_url (needed when that is a file:// output)
+  std::string chunk_channel = "VILMA_MISSION";   // mission_chunk_t (+ channel_suffix)
+  std::string ack_channel = "VILMA_MISSION_ACK"; // mission_ack_t (+ channel_suffix)
+  int delta_vertices = 10;      // send a delta every this many new vertices ...
+  double delta_period_s = 1.0;  // ... or when this long has passed with new data [s]
+  // At shutdown: wait this long at most for mapstored to acknowledge the END [s]. What is not
+  // acknowledged by then is lost for mapstored (the --save-map copy is still written).
+  double end_timeout_s = 5.0;
+  double retransmit_timeout_s = 0.25;    // first retransmission without ack progress [s]
+  int max_window_chunks = 4096;          // unacknowledged chunks kept in memory
+  std::string Validate() const;
+};
+
+// The map-builder stage (docs/daemon.md "Map building"): a thread fed by the filter thread.
+struct MappingOptions {
+  bool enabled = false;
+  // Map builder options: a YAML file like config/map_builder.yaml (relative to the daemon
+  // config), "" for the built-in defaults, or the options inline as a map.
+  std::string map_builder_file;
+  mapping::MapBuilderOptions map_builder;
+  std::string mission_name;  // name of the mission (mapstored's folder name; "" = the id)
+  // Seed of the mission id (and of every id in it). 0: random in live mode, 1 with
+  // --input-log (deterministic maps).
+  uint64_t mission_seed = 0;
+  // Save the mission into this folder at the end (end of log or SIGTERM); "" = do not save.
+  // --save-map DIR sets it (and enabled). The folder must not hold a map yet.
+  std::string save_dir;
+  // Filter -> map builder queue [items: IMU samples and frame states]. 8192 = 40 s of IMU at
+  // 200 Hz; a full queue drops IMU samples (map_imu_dropped: a bug).
+  int queue_capacity = 8192;
+  // Frames (with their images) queued for the builder at most; beyond, live mode drops the
+  // frame (map_frames_dropped), --input-log blocks.
+  int max_frames_in_flight = 2;
+  MapStreamOptions stream;
+  std::string Validate() const;
+};
+
 struct DaemonOptions {
   std::string rig;             // sensor rig YAML ("" = must come from --rig)
   std::string lcm_url;         // "" = $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0
@@ -58,6 +100,7 @@ struct DaemonOptions {
   SensorSyncOptions sync;
   ChannelOptions channels;
   QueueOptions queues;
+  MappingOptions mapping;
 
   // Command line only (not in YAML).
   std::string input_log;  // read this lcm-logger file instead of subscribing (deterministic)

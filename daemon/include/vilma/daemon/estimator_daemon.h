@@ -30,6 +30,12 @@ struct DaemonSummary {
   int64_t malformed_messages = 0;
   int64_t drops = 0;  // every message or frame dropped by the daemon (not the synchronizer)
   std::string report;  // the final counters, one "name value" per line
+  // Map building (mapping.enabled).
+  bool mapping = false;
+  bool map_saved = false;        // mapping.save_dir given and the map was written
+  std::string map_error;         // why the map could not be saved ("" if it was or not asked)
+  bool stream_finished = false;  // mapstored acknowledged the END of the mission
+  std::string map_report;        // one line: vertices, landmarks, stream, save
 };
 
 class EstimatorDaemon {
@@ -42,7 +48,9 @@ class EstimatorDaemon {
   EstimatorDaemon& operator=(const EstimatorDaemon&) = delete;
 
   // Runs the pipeline until RequestStop() or, with an input log, the end of the log; then
-  // flushes every stage, publishes a last status (STOPPING) and returns. Messages about bad
+  // flushes every stage, with map building finishes the mission (streams its end to
+  // mapstored, saves it into mapping.save_dir: this can take seconds for a large map; statuses
+  // keep coming at status_period_s meanwhile), publishes a last status (STOPPING) and returns. Messages about bad
   // input and faults (rate limited) go to stderr, one line each. Call once.
   DaemonSummary Run();
 

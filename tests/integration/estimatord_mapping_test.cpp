@@ -1,0 +1,256 @@
+// Map building in vilma-estimatord as processes (docs/daemon.md "Map building"): --save-map on
+// an LCM log (a consistent, deterministic map), the live mission stream to vilma-mapstored with
+// kill -9 of mapstored (restart, retransmission, every vertex stored) and kill -9 of the daemon
+// (mapstored finalizes an incomplete mission that loads). LCM on loopback, ttl=0, a port per
+// test.
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "integration/process_util.h"
+#include "vilma/mapstore/consistency.h"
+#include "vilma/mapstore/map_io.h"
+
+namespace vilma {
+namespace {
+
+namespace fs = std::filesystem;
+using mapstore::VIMap;
+
+const std::string kBin = std::string(VILMA_BINARY_DIR) + "/bin/";
+const std::string kDaemon = kBin + "vilma-estimatord";
+const std::string kSim = kBin + "vilma-sim";
+const std::string kReplay = kBin + "vilma-replay";
+const std::string kMapstored = kBin + "vilma-mapstored";
+
+bool HaveBinaries() {
+  for (const std::string& b : {kDaemon, kSim, kReplay, kMapstored}) {
+    if (!test::FileExists(b)) {
+      WARN("skipped: " << b << " not built");
+      return false;
+    }
+  }
+  return true;
+}
+
+// 15 s of the simulated room (mono 752x480 at 20 Hz, IMU 200 Hz), its LCM log, made once.
+struct RoomData {
+  std::string dir, dataset, log;
+  double seconds = 15.0;
+};
+const RoomData& Room() {
+  static RoomData data = [] {
+    RoomData d;
+    d.dir = test::ScratchDir() + "/estimatord_mapping";
+    fs::remove_all(d.dir);
+    fs::create_directories(d.dir);
+    d.dataset = d.dir + "/room";
+    d.log = d.dir + "/room.lcmlog";
+    test::ChildProcess sim({kSim, "room", "--out", d.dataset, "--seconds", "15", "--seed", "3"},
+                           d.dir + "/sim.out");
+    if (sim.Wait(120.0) != 0) throw std::runtime_error("vilma-sim failed");
+    test::ChildProcess replay({kReplay, d.dataset, "--to-log", d.log, "--quiet"}, d.dir + "/replay.out");
+    if (replay.Wait(60.0) != 0) throw std::runtime_error("vilma-replay --to-log failed");
+    static const std::string dir_to_remove = d.dir;
+    std::atexit([] {
+      fs::remove_all(dir_to_remove);
+      std::error_code error;
+      fs::remove(fs::path(dir_to_remove).parent_path(), error);
+    });
+    return d;
+  }();
+  return data;
+}
+
+std::string Replace(std::string text, const std::string& from, const std::string& to) {
+  const std::size_t at = text.find(from);
+  REQUIRE(at != std::string::npos);
+  return text.replace(at, from.size(), to);
+}
+
+// config/daemon.yaml with map building and streaming on, a mission name, a short END wait.
+std::string StreamingConfig(const std::string& dir, const std::string& mission_name) {
+  std::string c = test::ReadTextFile(std::string(VILMA_SOURCE_DIR) + "/config/daemon.yaml");
+  c = Replace(c, "enabled: false          # run", "enabled: true          # run");
+  c = Replace(c, "    enabled: false\n    lcm_url", "    enabled: true\n    lcm_url");
+  c = Replace(c, "mission_name: \"\"", "mission_name: \"" + mission_name + "\"");
+  c = Replace(c, "end_timeout_s: 5.0", "end_timeout_s: 15.0");
+  const std::string path = dir + "/daemon_" + mission_name + ".yaml";
+  std::ofstream(path) << c;
+  return path;
+}
+
+std::string FreshDir(const std::string& name) {
+  const std::string dir = Room().dir + "/" + name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Every file under `root` (relative path -> bytes).
+std::map<std::string, std::string> FolderContents(const std::string& root) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    if (!e.is_regular_file()) continue;
+    files[fs::relative(e.path(), root).string()] = test::ReadTextFile(e.path().string());
+  }
+  return files;
+}
+
+// "name value" of the daemon's final report.
+long long ReportValue(const std::string& output, const std::string& name) {
+  const std::size_t at = output.find("\n" + name + " ");
+  return at == std::string::npos ? -1 : std::atoll(output.c_str() + at + name.size() + 2);
+}
+
+TEST_CASE("vilma-estimatord --input-log --save-map: a consistent map, the same on every run",
+          "[integration][daemon][mapping]") {
+  if (!HaveBinaries()) return;
+  const RoomData& room = Room();
+  std::map<std::string, std::string> runs[2];
+  for (int run = 0; run < 2; ++run) {
+    const std::string dir = FreshDir("save_map" + std::to_string(run));
+    const std::string text = dir + "/daemon.out";
+    test::ChildProcess daemon({kDaemon, "--rig", room.dataset + "/rig.yaml", "--input-log", room.log,
+                               "--lcm-url", "file://" + dir + "/odom.lcm?mode=w", "--save-map",
+                               dir + "/map"},
+                              text);
+    const int status = daemon.Wait(90.0);
+    const std::string output = test::ReadTextFile(text);
+    INFO(output);
+    REQUIRE(status == 0);
+    CHECK(output.find(" 0 drops") != std::string::npos);
+    CHECK(ReportValue(output, "map_frames_dropped") == 0);
+    CHECK(ReportValue(output, "map_imu_dropped") == 0);
+    runs[run] = FolderContents(dir + "/map");
+
+    if (run == 0) {
+      const VIMap map = mapstore::LoadMap(dir + "/map");
+      const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
+      INFO(report.ToString());
+      CHECK(report.ok());
+      REQUIRE(map.mission_ids().size() == 1);
+      const mapstore::Mission& mission = map.mission(map.mission_ids()[0]);
+      CHECK(mission.complete);
+      // A vertex per tracked frame at 10 Hz: 15 s -> 151 at most, less the initialization.
+      const std::size_t vertices = map.vertex_ids(mission.id).size();
+      int good = 0;
+      for (const auto& id : map.landmark_ids(mission.id)) {
+        good += map.landmark(id).quality == mapstore::LandmarkQuality::kGood ? 1 : 0;
+      }
+      WARN("--save-map: " << vertices << " vertices, " << map.num_landmarks() << " landmarks, "
+                          << good << " good");
+      CHECK(vertices >= 135);
+      CHECK(vertices <= 151);
+      CHECK(map.VertexChain(mission.id).size() == vertices);
+      CHECK(good >= 300);
+      CHECK(ReportValue(output, "map_vertices") == static_cast<long long>(vertices));
+    }
+  }
+  REQUIRE(!runs[0].empty());
+  CHECK(runs[0] == runs[1]);  // every file, byte for byte
+}
+
+TEST_CASE("vilma-estimatord streams the mission to vilma-mapstored; kill -9 of mapstored",
+          "[integration][daemon][mapping]") {
+  if (!HaveBinaries()) return;
+  const RoomData& room = Room();
+  const std::string dir = FreshDir("stream_kill_store");
+  const std::string root = dir + "/maps";
+  const std::string url = test::UniqueLcmUrl();
+  const std::string config = StreamingConfig(dir, "room_live");
+  test::ChildProcess store1({kMapstored, "--root", root, "--lcm-url", url}, dir + "/mapstored1.out");
+  REQUIRE(test::WaitForOutput(dir + "/mapstored1.out", "ready", 5.0));
+  const std::string text = dir + "/daemon.out";
+  test::ChildProcess daemon({kDaemon, "--config", config, "--rig", room.dataset + "/rig.yaml",
+                             "--lcm-url", url, "--save-map", dir + "/local"},
+                            text);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // subscribed
+  test::ChildProcess replay({kReplay, room.dataset, "--lcm-url", url, "--quiet"}, dir + "/replay.out");
+  // Mid-mission: a few deltas have been acknowledged (the filter initializes within ~1 s).
+  std::this_thread::sleep_for(std::chrono::seconds(5));
+  REQUIRE(replay.running());
+  store1.Signal(SIGKILL);
+  CHECK(store1.Wait(5.0) == 128 + SIGKILL);
+  std::this_thread::sleep_for(std::chrono::seconds(2));  // the daemon keeps mapping and sending
+  test::ChildProcess store2({kMapstored, "--root", root, "--lcm-url", url}, dir + "/mapstored2.out");
+  REQUIRE(replay.Wait(30.0) == 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  daemon.Signal(SIGTERM);
+  const int status = daemon.Wait(30.0);
+  const std::string output = test::ReadTextFile(text);
+  INFO(output << test::ReadTextFile(dir + "/mapstored1.out") << test::ReadTextFile(dir + "/mapstored2.out"));
+  REQUIRE(status == 0);
+  CHECK(output.find("mission complete in mapstored") != std::string::npos);
+  CHECK(ReportValue(output, "stream_retransmitted") > 0);
+  {
+    const std::size_t at = output.find("vilma-estimatord: map:");
+    WARN((at == std::string::npos ? std::string("no map line") : output.substr(at, output.find('\n', at) - at)));
+  }
+  CHECK(test::ReadTextFile(dir + "/mapstored2.out").find("recovered mission") != std::string::npos);
+  store2.Signal(SIGTERM);
+  CHECK(store2.Wait(5.0) == 0);
+
+  const VIMap local = mapstore::LoadMap(dir + "/local");
+  const VIMap stored = mapstore::LoadMap(root + "/room_live");
+  REQUIRE(local.mission_ids().size() == 1);
+  const mapstore::MissionId id = local.mission_ids()[0];
+  REQUIRE(stored.HasMission(id));
+  CHECK(stored.mission(id).complete);
+  CHECK(local.vertex_ids(id).size() > 100);
+  CHECK(stored.vertex_ids(id) == local.vertex_ids(id));  // every vertex, same ids, same order
+  CHECK(stored.edge_ids(id) == local.edge_ids(id));
+  CHECK(stored.landmark_ids(id) == local.landmark_ids(id));
+  for (const auto& v : local.vertex_ids(id)) {
+    CHECK(stored.vertex(v).t_ns == local.vertex(v).t_ns);
+    CHECK(stored.vertex(v).frames[0].landmark_ids == local.vertex(v).frames[0].landmark_ids);
+  }
+  CHECK(mapstore::CheckMapConsistency(stored).ok());
+}
+
+TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplete mission",
+          "[integration][daemon][mapping]") {
+  if (!HaveBinaries()) return;
+  const RoomData& room = Room();
+  const std::string dir = FreshDir("stream_kill_daemon");
+  const std::string root = dir + "/maps";
+  const std::string url = test::UniqueLcmUrl();
+  const std::string config = StreamingConfig(dir, "room_crash");
+  std::ofstream(dir + "/mapstored.yaml") << "incomplete_timeout_s: 1.0\n";
+  test::ChildProcess store({kMapstored, "--root", root, "--lcm-url", url, "--config",
+                            dir + "/mapstored.yaml"},
+                           dir + "/mapstored.out");
+  REQUIRE(test::WaitForOutput(dir + "/mapstored.out", "ready", 5.0));
+  test::ChildProcess daemon({kDaemon, "--config", config, "--rig", room.dataset + "/rig.yaml",
+                             "--lcm-url", url},
+                            dir + "/daemon.out");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  test::ChildProcess replay({kReplay, room.dataset, "--lcm-url", url, "--quiet"}, dir + "/replay.out");
+  std::this_thread::sleep_for(std::chrono::seconds(5));
+  daemon.Signal(SIGKILL);
+  CHECK(daemon.Wait(5.0) == 128 + SIGKILL);
+  replay.Signal(SIGKILL);
+  replay.Wait(5.0);
+  INFO(test::ReadTextFile(dir + "/daemon.out") << test::ReadTextFile(dir + "/mapstored.out"));
+  REQUIRE(test::WaitForOutput(dir + "/mapstored.out", "finalized as incomplete", 10.0));
+  store.Signal(SIGTERM);
+  CHECK(store.Wait(5.0) == 0);
+
+  const VIMap stored = mapstore::LoadMap(root + "/room_crash");
+  REQUIRE(stored.mission_ids().size() == 1);
+  const mapstore::Mission& mission = stored.mission(stored.mission_ids()[0]);
+  CHECK_FALSE(mission.complete);
+  // About 4 s of tracking at 10 Hz, in deltas of 10 vertices: at least a few deltas arrived.
+  const std::size_t vertices = stored.vertex_ids(mission.id).size();
+  WARN("kill -9 of the daemon: mapstored kept " << vertices << " vertices");
+  CHECK(vertices >= 10);
+  CHECK(stored.VertexChain(mission.id).size() == vertices);  // a prefix of the mission
+}
+
+}  // namespace
+}  // namespace vilma
