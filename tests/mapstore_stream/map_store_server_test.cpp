@@ -351,7 +351,15 @@ TEST_CASE("sender and server talk over LCM (memq://)", "[mapstore_stream]") {
         s->Flush();
       },
       &server);
-  LcmMissionStreamSender stream(&lcm, "VILMA_MISSION", "VILMA_MISSION_ACK", deltas[0].mission.id, mo.name);
+  // memq:// is lossless, so nothing may be retransmitted. The server fsyncs every chunk inside
+  // lcm.handle() on this one thread, so on a loaded machine acks can take longer than the
+  // default 0.25 s timeout: a timeout far above that makes "no retransmission" a property of
+  // the protocol, not of the machine's load.
+  MissionStreamSenderOptions sender_options;
+  sender_options.retransmit_timeout_s = 30.0;
+  sender_options.max_retransmit_timeout_s = 30.0;
+  LcmMissionStreamSender stream(&lcm, "VILMA_MISSION", "VILMA_MISSION_ACK", deltas[0].mission.id,
+                                mo.name, sender_options);
   for (const MissionDelta& d : deltas) REQUIRE(stream.sender().Send(d));
   REQUIRE(stream.WaitAcked(5.0));
   REQUIRE(stream.EndAndWait(5.0));

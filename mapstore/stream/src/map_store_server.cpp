@@ -14,17 +14,12 @@
 #include <vector>
 
 #include "vilma/core/error.h"
+#include "vilma/core/time.h"
 #include "vilma/mapstore/checksum.h"
 
 namespace vilma {
 namespace mapstore {
 namespace {
-
-int64_t WallUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
 
 bool IsDir(const std::string& path) {
   struct stat st;
@@ -227,7 +222,7 @@ void MapStoreServer::Start() {
 void MapStoreServer::Ack(const std::string& mission_hex, int64_t session, int64_t seq,
                          int8_t status, const std::string& message) {
   vilma::mission_ack_t ack;
-  ack.utime = WallUtime();
+  ack.utime = WallClockUtime();
   ack.mission_id = mission_hex;
   ack.session_id = session;
   ack.ack_seq = seq;

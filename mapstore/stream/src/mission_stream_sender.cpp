@@ -13,12 +13,6 @@ namespace vilma {
 namespace mapstore {
 namespace {
 
-int64_t WallUtime() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 int64_t RandomSession() {
   std::random_device rd;
   int64_t s = 0;
@@ -113,7 +107,7 @@ void MissionStreamSender::TransmitNew() {
 }
 
 void MissionStreamSender::Transmit(vilma::mission_chunk_t& chunk) {
-  chunk.utime = WallUtime();
+  chunk.utime = WallClockUtime();
   publisher_(chunk);
 }
 

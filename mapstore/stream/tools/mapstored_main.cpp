@@ -12,8 +12,9 @@
 
 #include <vilma/status_t.hpp>
 
-#include "vilma/drivers/lcm_url.h"
 #include "vilma/core/error.h"
+#include "vilma/core/time.h"
+#include "vilma/drivers/lcm_url.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/mapstore/stream/map_store_server.h"
 
@@ -175,9 +176,7 @@ int main(int argc, char** argv) {
   auto publish_status = [&](int32_t state, const std::string& message) {
     const auto& c = server->counters();
     vilma::status_t s;
-    s.utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                  std::chrono::system_clock::now().time_since_epoch())
-                  .count();
+    s.utime = vilma::WallClockUtime();
     s.node = "vilma-mapstored";
     s.state = state;
     s.message = message;

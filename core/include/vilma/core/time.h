@@ -3,6 +3,7 @@
 // Both are on the robot's (sensor) clock unless a name says otherwise.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
 
 namespace vilma {
@@ -17,5 +18,13 @@ inline int64_t SecondsToNs(double t_s) {
 // ns -> us rounds to the nearest microsecond (EuRoC stamps are not whole microseconds).
 inline int64_t NsToUtime(int64_t t_ns) { return (t_ns + (t_ns >= 0 ? 500 : -500)) / 1000; }
 inline int64_t UtimeToNs(int64_t utime) { return utime * 1000; }
+
+// Wall-clock time now [us since the Unix epoch], for status reports and logs; estimation
+// always uses the sensor stamps, never this.
+inline int64_t WallClockUtime() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
 
 }  // namespace vilma
