@@ -10,6 +10,7 @@
 
 #include "vilma/console/command.h"
 #include "vilma/console/eval_command.h"
+#include "vilma/console/kitti_command.h"
 #include "vilma/console/rig_command.h"
 #include "vilma/console/vio_command.h"
 
@@ -26,6 +27,8 @@ struct Subcommand {
 const Subcommand kSubcommands[] = {
     {"eval", "trajectory error (ATE, RPE) of an estimate against ground truth",
      &vilma::console::RunEvalCommand},
+    {"localize-kitti", "localization check on a KITTI stereo slice (map: even frames, query: odd)",
+     &vilma::console::RunKittiCommand},
     {"rig", "sensor rig files: import EuRoC/Kalibr calibrations, check a rig YAML",
      &vilma::console::RunRigCommand},
     {"vio", "visual-inertial odometry (ROVIO-style filter) over an ASL dataset folder",

@@ -1,0 +1,92 @@
+#include "vilma/console/kitti_command.h"
+
+#include <exception>
+
+#include "vilma/core/error.h"
+#include "vilma/localizer/kitti_localization.h"
+
+namespace vilma::console {
+namespace {
+
+std::string NextValue(const std::vector<std::string>& args, std::size_t* i) {
+  if (*i + 1 >= args.size()) throw UsageError(args[*i] + ": missing value");
+  return args[++*i];
+}
+
+}  // namespace
+
+void PrintKittiHelp(std::ostream& out) {
+  out << "usage: vilma localize-kitti KITTI_DIR [--config LOCALIZER.yaml]\n"
+         "                            [--features FEATURES.yaml | --indoor-features]\n"
+         "\n"
+         "Real-image localization check on a KITTI odometry stereo slice (calib.txt,\n"
+         "poses.txt, image_l/, image_r/; e.g. ../shared/data/kitti_slices/KITTI_sequence_1):\n"
+         "a map is built from the EVEN frames only (BRISK keypoints stereo-matched along the\n"
+         "rows, triangulated in the left camera, placed with the ground-truth poses, merged\n"
+         "with the previous even frame's landmarks), then every ODD left image is localized\n"
+         "against it (descriptor index, covisibility, P3P RANSAC). Prints one row per query\n"
+         "and the recall within 0.3 m and 2 deg, median errors and timings.\n"
+         "\n"
+         "options:\n"
+         "  --config FILE       localizer options (config/localizer.yaml format; default:\n"
+         "                      its built-in defaults)\n"
+         "  --features FILE     keyframe feature options (strict, every key; default: the\n"
+         "                      KITTI profile, 16x4 grid, 2000 keypoints, 3 pyramid levels)\n"
+         "  --indoor-features   use the 752x480 indoor default feature options instead\n"
+         "  -h, --help          this text\n"
+         "\n"
+         "exit codes: 0 ok (whatever the recall), 1 input error, 2 usage error\n";
+}
+
+int RunKittiCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  try {
+    std::string directory, config_path, features_path;
+    bool indoor = false;
+    for (std::size_t i = 0; i < args.size(); ++i) {
+      if (args[i] == "--help" || args[i] == "-h") {
+        PrintKittiHelp(out);
+        return kExitOk;
+      } else if (args[i] == "--config") {
+        config_path = NextValue(args, &i);
+      } else if (args[i] == "--features") {
+        features_path = NextValue(args, &i);
+      } else if (args[i] == "--indoor-features") {
+        indoor = true;
+      } else if (!args[i].empty() && args[i][0] == '-') {
+        throw UsageError("unknown option " + args[i]);
+      } else if (directory.empty()) {
+        directory = args[i];
+      } else {
+        throw UsageError("unexpected argument " + args[i]);
+      }
+    }
+    if (directory.empty()) throw UsageError("missing KITTI_DIR");
+    if (indoor && !features_path.empty()) {
+      throw UsageError("--features and --indoor-features exclude each other");
+    }
+    localizer::KittiLocalizationOptions options;
+    if (!config_path.empty()) options.localizer = localizer::LoadLocalizerOptions(config_path);
+    if (!features_path.empty()) {
+      options.features = localizer::LoadKeyframeFeatureOptions(features_path);
+    } else if (indoor) {
+      options.features = localizer::KeyframeFeatureOptions();
+    }
+    const localizer::KittiSequence sequence = localizer::LoadKittiSequence(directory);
+    out << "KITTI " << directory << ": " << sequence.size() << " frames, "
+        << sequence.camera.width() << "x" << sequence.camera.height() << ", fx "
+        << sequence.camera.fx() << " px, baseline " << sequence.baseline_m << " m\n";
+    const localizer::KittiLocalizationReport report =
+        localizer::EvaluateKittiLocalization(sequence, options);
+    localizer::WriteKittiReport(out, report, options);
+    return kExitOk;
+  } catch (const UsageError& e) {
+    err << "vilma localize-kitti: " << e.what() << "\n\n";
+    PrintKittiHelp(err);
+    return kExitUsage;
+  } catch (const std::exception& e) {
+    err << "vilma localize-kitti: error: " << e.what() << "\n";
+    return kExitInputError;
+  }
+}
+
+}  // namespace vilma::console

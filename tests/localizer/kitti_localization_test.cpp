@@ -1,0 +1,263 @@
+#include "vilma/localizer/kitti_localization.h"
+
+#include <time.h>
+
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <random>
+#include <sstream>
+
+#include "vilma/core/error.h"
+
+using namespace vilma;
+using namespace vilma::localizer;
+namespace fs = std::filesystem;
+
+namespace {
+
+const fs::path kSequence = fs::path(VILMA_SHARED_DATA_DIR) / "kitti_slices" / "KITTI_sequence_1";
+
+}  // namespace
+
+TEST_CASE("kitti localization: stereo matching triangulates a synthetic rectified pair",
+          "[localization][kitti]") {
+  // Two identical descriptors on the same row with disparity 20 px -> Z = fx b / 20.
+  const Camera camera(1226, 370, Eigen::Vector4d(700.0, 700.0, 600.0, 180.0),
+                      DistortionModel::kNone, Eigen::VectorXd());
+  KeyframeFeatures left, right;
+  left.descriptors = cv::Mat::zeros(2, 64, CV_8U);
+  right.descriptors = cv::Mat::zeros(3, 64, CV_8U);
+  left.descriptors.at<uint8_t>(1, 0) = 0xFF;  // keypoint 1 differs from every right one by >= 8
+  right.descriptors.at<uint8_t>(1, 5) = 0xFF;
+  right.descriptors.at<uint8_t>(2, 9) = 0x0F;
+  left.keypoints = {cv::KeyPoint(700.f, 200.f, 12.f), cv::KeyPoint(400.f, 100.f, 12.f)};
+  right.keypoints = {cv::KeyPoint(680.f, 200.5f, 12.f),  // the match: d = 20, dv = 0.5
+                     cv::KeyPoint(650.f, 200.f, 12.f),   // same row, Hamming 8
+                     cv::KeyPoint(680.f, 203.f, 12.f)};  // row too far
+  StereoMatchOptions options;
+  options.ratio = 0.9;
+  const std::vector<StereoMatch> m = MatchStereo(left, right, camera, 0.5, options);
+  REQUIRE(m.size() == 1);
+  CHECK(m[0].left == 0);
+  CHECK(m[0].right == 0);
+  CHECK(m[0].hamming == 0);
+  CHECK(m[0].p_C.z() == Approx(700.0 * 0.5 / 20.0));
+  CHECK(m[0].p_C.x() == Approx((700.0 - 600.0) * m[0].p_C.z() / 700.0));
+  CHECK(m[0].p_C.y() == Approx((200.0 - 180.0) * m[0].p_C.z() / 700.0));
+  // Negative disparity is never a match: the right keypoint 1 (Hamming 8, d = 50) wins then.
+  right.keypoints[0].pt.x = 720.f;
+  const std::vector<StereoMatch> m2 = MatchStereo(left, right, camera, 0.5, options);
+  REQUIRE(m2.size() == 1);
+  CHECK(m2[0].right == 1);
+  CHECK(m2[0].hamming == 8);
+  // ... and beyond max_depth_m nothing is kept (d = 50 -> Z = 7 m).
+  options.max_depth_m = 5.0;
+  CHECK(MatchStereo(left, right, camera, 0.5, options).empty());
+}
+
+TEST_CASE("kitti localization: loader errors name the file", "[localization][kitti]") {
+  CHECK_THROWS_AS(LoadKittiSequence("/nonexistent/kitti"), InputError);
+  KittiLocalizationOptions options;
+  options.stereo.ratio = 0.0;
+  CHECK(options.Validate().find("stereo.ratio") == 0);
+}
+
+TEST_CASE("kitti localization: odd frames against a map of the even frames (real images)",
+          "[localization][kitti]") {
+  if (!fs::exists(kSequence / "poses.txt")) {
+    WARN("SKIPPED: KITTI slice absent at " << kSequence);
+    return;
+  }
+  const KittiSequence seq = LoadKittiSequence(kSequence.string());
+  REQUIRE(seq.size() >= 10);
+  CHECK(seq.baseline_m == Approx(0.537).epsilon(0.01));
+  const KittiLocalizationOptions options;
+  const KittiLocalizationReport report = EvaluateKittiLocalization(seq, options);
+  std::ostringstream table;
+  WriteKittiReport(table, report, options);
+  std::cout << table.str();
+  CHECK(report.map_frames == static_cast<int>((seq.size() + 1) / 2));
+  CHECK(report.queries.size() == seq.size() / 2);
+  CHECK(report.merged_observations > 0);
+  // The target: recall >= 90 % within 0.3 m and 2 deg.
+  CHECK(report.recall >= 0.9);
+  CHECK(report.median_position_error_m < 0.3);
+  CHECK(report.median_rotation_error_deg < 2.0);
+
+  // The 752x480 indoor default features (600 keypoints, one level) meet the target as well,
+  // with fewer inliers per query (about 60-140 instead of 150-330): the KITTI profile is margin,
+  // not a necessity.
+  KittiLocalizationOptions indoor;
+  indoor.features = KeyframeFeatureOptions();
+  const KittiLocalizationReport indoor_report = EvaluateKittiLocalization(seq, indoor);
+  std::cout << "indoor default features: recall " << indoor_report.recall << ", median "
+            << indoor_report.median_position_error_m << " m, "
+            << indoor_report.median_rotation_error_deg << " deg\n";
+  CHECK(indoor_report.recall >= 0.9);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Query time against a 50k-landmark map (the "<= 20 ms p50" figure). Hidden benchmark:
+//   vilma_localizer_tests "[.benchmark][loc50k]"
+// The map is synthetic (the KITTI slice gives only ~7.5k landmarks): 500 map keyframes along a
+// 500 m path, 100 landmarks each placed in front of their keyframe, each seen by that keyframe
+// and the next (2 descriptors, covisibility chain), with BRISK-like correlated descriptors (the
+// latent model of descriptor_index_test.cpp: ~15 % bit flips between observations of one
+// landmark). A query keyframe at a map keyframe's pose (perturbed by 0.2 m, 1 deg) has 500
+// keypoints: the projections of the 200 landmarks of that keyframe and the next with fresh noisy
+// descriptors and 0.5 px noise, plus 300 distractors of unseen appearance.
+namespace {
+
+constexpr int kBytes = 64;
+
+struct BriskLikeDescriptors {
+  Eigen::MatrixXd W;  // 512 x 32
+  std::mt19937_64 rng;
+  double s_z, s_e;
+  BriskLikeDescriptors(uint64_t seed, double sz, double se)
+      : W(512, 32), rng(seed), s_z(sz), s_e(se) {
+    std::normal_distribution<double> n;
+    for (int i = 0; i < W.size(); ++i) W.data()[i] = n(rng);
+    W.rowwise().normalize();
+  }
+  Eigen::VectorXd Latent() {
+    std::normal_distribution<double> n;
+    Eigen::VectorXd z(32);
+    for (int i = 0; i < 32; ++i) z[i] = n(rng);
+    return z;
+  }
+  void Observe(const Eigen::VectorXd& z, uint8_t* out) {
+    std::normal_distribution<double> n;
+    Eigen::VectorXd zz = z;
+    for (int i = 0; i < 32; ++i) zz[i] += s_z * n(rng);
+    const Eigen::VectorXd a = W * zz;
+    std::memset(out, 0, kBytes);
+    for (int j = 0; j < 512; ++j) {
+      if (a[j] + s_e * n(rng) > 0) out[j / 8] |= static_cast<uint8_t>(1u << (j % 8));
+    }
+  }
+};
+
+double ThreadCpuMs() {
+  timespec ts;
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+}
+
+double Quantile(std::vector<double> v, double q) {
+  std::sort(v.begin(), v.end());
+  return v[static_cast<std::size_t>(std::lround(q * static_cast<double>(v.size() - 1)))];
+}
+
+// Keyframe j of the path: 1 m apart along x, looking along x (camera z) with a slow yaw wave.
+Transformation MapKeyframePose(int j) {
+  const double yaw = 0.3 * std::sin(0.02 * j);
+  Eigen::Matrix3d R_G_C;
+  // Camera z forward = G x, camera x right = -G y, camera y down = -G z, then yaw about G z.
+  R_G_C << 0, 0, 1, -1, 0, 0, 0, -1, 0;
+  R_G_C = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix() * R_G_C;
+  return Transformation(R_G_C, Eigen::Vector3d(static_cast<double>(j), 0.0, 1.5));
+}
+
+}  // namespace
+
+TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc50k]") {
+  const int kKeyframes = 500, kPerKeyframe = 100, kQueries = 50;
+  const Camera camera(752, 480, Eigen::Vector4d(460.0, 460.0, 376.0, 240.0),
+                      DistortionModel::kNone, Eigen::VectorXd());
+  BriskLikeDescriptors gen(21, 0.25, 0.25);
+  std::mt19937_64 rng(22);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  std::normal_distribution<double> n(0.0, 1.0);
+
+  auto map = std::make_shared<LocalizationMap>();
+  std::vector<Eigen::VectorXd> latent;
+  map->observer_begin.push_back(0);
+  for (int j = 0; j < kKeyframes; ++j) map->observers.push_back(mapstore::Id{1, uint64_t(j + 1)});
+  uint8_t d[kBytes];
+  for (int j = 0; j < kKeyframes; ++j) {
+    const Transformation T_G_C = MapKeyframePose(j);
+    for (int i = 0; i < kPerKeyframe; ++i) {
+      const uint32_t l = static_cast<uint32_t>(map->p_G.size());
+      Eigen::Vector3d bearing;
+      camera.Unproject(Eigen::Vector2d(20 + u(rng) * 712, 20 + u(rng) * 440), &bearing);
+      const double depth = 4.0 + 26.0 * u(rng);  // [m]
+      map->p_G.push_back(T_G_C * (bearing / bearing.z() * depth));
+      map->landmark_ids.push_back(mapstore::Id{2, uint64_t(l + 1)});
+      map->observer_index.push_back(static_cast<uint32_t>(j));
+      if (j + 1 < kKeyframes) map->observer_index.push_back(static_cast<uint32_t>(j + 1));
+      map->observer_begin.push_back(static_cast<uint32_t>(map->observer_index.size()));
+      latent.push_back(gen.Latent());
+      for (int o = 0; o < 2; ++o) {
+        gen.Observe(latent.back(), d);
+        map->descriptors.insert(map->descriptors.end(), d, d + kBytes);
+        map->descriptor_landmark.push_back(l);
+      }
+    }
+  }
+  REQUIRE(map->Validate().empty());
+  REQUIRE(map->num_landmarks() >= 50000);
+
+  const LocalizerOptions options;  // config/localizer.yaml defaults
+  auto t0 = std::chrono::steady_clock::now();
+  const Localizer localizer(map, options);
+  const double construct_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+
+  std::vector<double> cpu_ms, match_ms, pose_ms;
+  int localized = 0;
+  LocalizerStats stats;
+  for (int q = 0; q < kQueries; ++q) {
+    const int j = 5 + q * (kKeyframes - 10) / kQueries;
+    Transformation T_G_C = MapKeyframePose(j);
+    Eigen::Matrix<double, 6, 1> xi;
+    xi << 0.2 * n(rng), 0.2 * n(rng), 0.2 * n(rng), 0.017 * n(rng), 0.017 * n(rng),
+        0.017 * n(rng);
+    T_G_C = T_G_C * Transformation::Exp(xi);
+    const Transformation T_C_G = T_G_C.inverse();
+    std::vector<Eigen::Vector2d> uv;
+    std::vector<uint8_t> descriptors;
+    for (int l = j * kPerKeyframe; l < (j + 2) * kPerKeyframe; ++l) {
+      Eigen::Vector2d px;
+      if (camera.Project(T_C_G * map->p_G[static_cast<std::size_t>(l)], &px) !=
+          Camera::ProjectionResult::kValid) {
+        continue;
+      }
+      uv.push_back(px + 0.5 * Eigen::Vector2d(n(rng), n(rng)));
+      gen.Observe(latent[static_cast<std::size_t>(l)], d);
+      descriptors.insert(descriptors.end(), d, d + kBytes);
+    }
+    while (uv.size() < 500) {
+      uv.emplace_back(u(rng) * 751, u(rng) * 479);
+      gen.Observe(gen.Latent(), d);
+      descriptors.insert(descriptors.end(), d, d + kBytes);
+    }
+    const double c0 = ThreadCpuMs();
+    const LocalizationResult r = localizer.Localize(camera, Transformation(), uv, descriptors.data());
+    cpu_ms.push_back(ThreadCpuMs() - c0);
+    match_ms.push_back(r.match_ms);
+    pose_ms.push_back(r.pose_ms);
+    stats.Add(r);
+    if (r.status == LocalizationStatus::kOk &&
+        (r.T_G_C.translation() - T_G_C.translation()).norm() < 0.1) {
+      ++localized;
+    }
+  }
+  std::cout << "50k-landmark map: " << map->num_landmarks() << " landmarks, "
+            << map->num_descriptors() << " descriptors, k = " << localizer.index().k()
+            << "\n  Localizer construction " << construct_ms << " ms (projection training "
+            << localizer.projection_train_ms() << " ms, index build "
+            << localizer.index_build_ms() << " ms)\n  query (500 keypoints): thread CPU p50 "
+            << Quantile(cpu_ms, 0.5) << " ms, p90 " << Quantile(cpu_ms, 0.9)
+            << " ms; wall match p50 " << Quantile(match_ms, 0.5) << " ms, pose p50 "
+            << Quantile(pose_ms, 0.5) << " ms\n  localized within 0.1 m: " << localized << "/"
+            << kQueries << "; " << stats.ToString() << "\n";
+  CHECK(localized >= kQueries * 9 / 10);
+  CHECK(Quantile(cpu_ms, 0.5) <= 20.0);
+}
