@@ -23,7 +23,7 @@ void PrintHelp() {
   std::cout <<
       "usage: vilma-estimatord [--config daemon.yaml] [--rig rig.yaml] [--lcm-url URL]\n"
       "                        [--channel-suffix S] [--input-log FILE] [--save-map DIR]\n"
-      "                        [--print-config]\n"
+      "                        [--localization-map FILE|MAPDIR] [--print-config]\n"
       "                        [--fault-stall-filter-after N] [--help]\n"
       "\n"
       "Realtime visual-inertial odometry on LCM: subscribes to the camera and IMU channels,\n"
@@ -43,6 +43,9 @@ void PrintHelp() {
       "                      SIGTERM; the map builder's Finish and the save come after the\n"
       "                      pipeline's flush and take longer for long missions (about 1 s\n"
       "                      per 10 min of mapping; TimeoutStopSec in the systemd unit)\n"
+      "  --localization-map FILE|MAPDIR   LOC mode: localize against this localization map\n"
+      "                      file or VI-map folder (localization.* options); publishes\n"
+      "                      VILMA_POSE (T_G_I) every frame once T_G_M is known\n"
       "  --print-config      print the effective options and exit\n"
       "  --fault-stall-filter-after N   test: the filter thread stalls after N frames\n"
       "                      (the systemd watchdog is then no longer petted)\n"
@@ -54,7 +57,7 @@ void PrintHelp() {
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string config_path, rig_path, lcm_url, suffix, input_log, save_map;
+  std::string config_path, rig_path, lcm_url, suffix, input_log, save_map, loc_map;
   bool have_url = false, have_suffix = false, print_config = false;
   long long stall_after = -1;
   const std::vector<std::string> args(argv + 1, argv + argc);
@@ -91,6 +94,9 @@ int main(int argc, char** argv) {
       } else if (a == "--save-map") {
         save_map = next();
         if (save_map.empty()) throw std::invalid_argument("--save-map: expected a folder");
+      } else if (a == "--localization-map") {
+        loc_map = next();
+        if (loc_map.empty()) throw std::invalid_argument("--localization-map: expected a file or folder");
       } else if (a == "--print-config") {
         print_config = true;
       } else if (a == "--fault-stall-filter-after") {
@@ -132,6 +138,10 @@ int main(int argc, char** argv) {
     if (!save_map.empty()) {
       options.mapping.enabled = true;
       options.mapping.save_dir = save_map;
+    }
+    if (!loc_map.empty()) {
+      options.localization.enabled = true;
+      options.localization.map = loc_map;
     }
     options.fault_stall_filter_after = stall_after;
     const std::string error = options.Validate();

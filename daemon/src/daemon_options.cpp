@@ -82,6 +82,31 @@ std::string MappingOptions::Validate() const {
   return "";
 }
 
+std::string LocalizationOptions::Validate() const {
+  if (enabled && map.empty()) {
+    return "localization.map: expected a localization map file or VI-map folder (or --localization-map)";
+  }
+  if (!enabled && !map.empty()) return "localization.map: expected localization.enabled: true";
+  if (!(std::isfinite(max_rate_hz) && max_rate_hz > 0.0 && max_rate_hz <= 100.0)) {
+    return "localization.max_rate_hz: expected 0 < rate <= 100 [Hz]";
+  }
+  if (min_inliers < 3) return "localization.min_inliers: expected >= 3";
+  if (!(std::isfinite(max_jump_m) && max_jump_m > 0.0)) return "localization.max_jump_m: expected > 0 [m]";
+  if (!(std::isfinite(max_jump_deg) && max_jump_deg > 0.0 && max_jump_deg <= 180.0)) {
+    return "localization.max_jump_deg: expected 0 < deg <= 180";
+  }
+  if (!(std::isfinite(max_gravity_misalignment_deg) && max_gravity_misalignment_deg > 0.0 &&
+        max_gravity_misalignment_deg <= 90.0)) {
+    return "localization.max_gravity_misalignment_deg: expected 0 < deg <= 90";
+  }
+  if (min_consistent_results < 1) return "localization.min_consistent_results: expected >= 1";
+  if (!(std::isfinite(forgetting_factor) && forgetting_factor > 0.0 && forgetting_factor <= 1.0)) {
+    return "localization.forgetting_factor: expected 0 < f <= 1";
+  }
+  if (max_consecutive_gated < 1) return "localization.max_consecutive_gated: expected >= 1";
+  return "";
+}
+
 std::string DaemonOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(CheckChannel("channel_suffix", channel_suffix, true));
   if (vio_camera < 0) return "vio_camera: expected >= 0";
@@ -100,6 +125,7 @@ std::string DaemonOptions::Validate() const {
   if (!sync_error.empty()) return "sync." + sync_error;
   VILMA_RETURN_IF_ERROR(estimator.Validate());
   VILMA_RETURN_IF_ERROR(mapping.Validate());
+  VILMA_RETURN_IF_ERROR(localization.Validate());
   return "";
 }
 
@@ -192,6 +218,21 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   stream.CheckNoUnknownKeys();
   map_node.CheckNoUnknownKeys();
 
+  const YamlNode loc = root.Child("localization");
+  if (!loc.IsMap()) root.Fail("localization", "a map");
+  o.localization.enabled = loc.Get<bool>("enabled");
+  o.localization.map = Resolve(root.file(), loc.Get<std::string>("map"));
+  o.localization.localizer_file = Resolve(root.file(), loc.Get<std::string>("localizer"));
+  o.localization.max_rate_hz = loc.Get<double>("max_rate_hz");
+  o.localization.min_inliers = loc.Get<int>("min_inliers");
+  o.localization.max_jump_m = loc.Get<double>("max_jump_m");
+  o.localization.max_jump_deg = loc.Get<double>("max_jump_deg");
+  o.localization.max_gravity_misalignment_deg = loc.Get<double>("max_gravity_misalignment_deg");
+  o.localization.min_consistent_results = loc.Get<int>("min_consistent_results");
+  o.localization.forgetting_factor = loc.Get<double>("forgetting_factor");
+  o.localization.max_consecutive_gated = loc.Get<int>("max_consecutive_gated");
+  loc.CheckNoUnknownKeys();
+
   root.CheckNoUnknownKeys();
   const std::string error = o.Validate();
   if (!error.empty()) {
@@ -272,6 +313,18 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << (o.mapping.map_builder_file.empty() ? " (built-in defaults)" : " from " + o.mapping.map_builder_file) << "\n"
       << "  map_builder:\n"
       << Indent(mapping::MapBuilderOptionsToYaml(o.mapping.map_builder), "    ")
+      << "localization:\n"
+      << "  enabled: " << (o.localization.enabled ? "true" : "false") << "\n"
+      << "  map: " << Quote(o.localization.map) << "\n"
+      << "  localizer: " << Quote(o.localization.localizer_file) << "\n"
+      << "  max_rate_hz: " << o.localization.max_rate_hz << "\n"
+      << "  min_inliers: " << o.localization.min_inliers << "\n"
+      << "  max_jump_m: " << o.localization.max_jump_m << "\n"
+      << "  max_jump_deg: " << o.localization.max_jump_deg << "\n"
+      << "  max_gravity_misalignment_deg: " << o.localization.max_gravity_misalignment_deg << "\n"
+      << "  min_consistent_results: " << o.localization.min_consistent_results << "\n"
+      << "  forgetting_factor: " << o.localization.forgetting_factor << "\n"
+      << "  max_consecutive_gated: " << o.localization.max_consecutive_gated << "\n"
       << "# estimator options" << (o.estimator_file.empty() ? " (built-in defaults)" : " from " + o.estimator_file) << "\n"
       << "estimator:\n"
       << Indent(estimator::FilterOptionsToYaml(o.estimator), "  ");

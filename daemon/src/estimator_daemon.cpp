@@ -27,6 +27,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/sensor_sync.h"
 #include "vilma/core/time.h"
+#include "vilma/daemon/global_frame_estimator.h"
 #include "vilma/daemon/image_pool.h"
 #include "vilma/daemon/latency_window.h"
 #include "vilma/daemon/systemd_notify.h"
@@ -35,6 +36,8 @@
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/estimator/filter_state.h"
 #include "vilma/estimator/vio_filter.h"
+#include "vilma/localizer/keyframe_features.h"
+#include "vilma/localizer/localizer.h"
 #include "vilma/mapping/map_builder.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/stream/mission_stream_sender.h"
@@ -47,11 +50,6 @@ constexpr int64_t kMs = 1000000;  // [ns]
 int64_t SteadyNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
-int64_t WallUs() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
       .count();
 }
 
@@ -140,6 +138,26 @@ enum Counter : int {
   kStreamDiskFullAcks,
   kStreamErrorAcks,
   kStreamBacklog,      // deltas waiting for window space
+  // Localization stage (docs/daemon.md "Localization").
+  kLocAttempts,        // frames handed to the localizer
+  kLocThinned,         // tracking frames not wanted (max_rate_hz)
+  kLocBusy,            // live: wanted, but the localizer was still busy (not a drop)
+  kLocOk,              // library statuses
+  kLocNoKeypoints,
+  kLocNoDescriptorMatches,
+  kLocTooFewMatches,
+  kLocRansacFailed,
+  kLocTooFewInliers,
+  kLocRejectedInliers,  // ok, but fewer than localization.min_inliers
+  kLocRejectedGravity,  // T_G_M not a yaw rotation
+  kLocRejectedJump,     // gated against the estimate
+  kLocRejectedStale,    // result for a previous M frame (filter restart / reset meanwhile)
+  kLocTgmUpdates,       // accepted into the T_G_M estimate
+  kLocTgmResets,        // estimate dropped (filter restart/reset, or re-initialized)
+  kLocInitialized,      // gauge: 1 when VILMA_POSE is published
+  kLocPosesPublished,
+  kLocStageUsP50,       // localizer stage time per query (extract + Localize) [us]
+  kLocStageUsMax,
   kNumCounters
 };
 
@@ -196,6 +214,25 @@ constexpr std::array<const char*, kNumCounters> kCounterNames = {
     "stream_disk_full_acks",
     "stream_error_acks",
     "stream_backlog",
+    "loc_attempts",
+    "loc_thinned",
+    "loc_busy",
+    "loc_ok",
+    "loc_no_keypoints",
+    "loc_no_descriptor_matches",
+    "loc_too_few_matches",
+    "loc_ransac_failed",
+    "loc_too_few_inliers",
+    "loc_rejected_inliers",
+    "loc_rejected_gravity",
+    "loc_rejected_jump",
+    "loc_rejected_stale",
+    "loc_tgm_updates",
+    "loc_tgm_resets",
+    "loc_initialized",
+    "loc_poses_published",
+    "loc_stage_us_p50",
+    "loc_stage_us_max",
 };
 
 // Counters that are drops (summed into "drops").
@@ -241,6 +278,25 @@ struct MapItem {
   std::array<cv::Mat, kMaxMapCameras> images;
 };
 
+// Filter -> localizer: a tracking frame to localize.
+struct LocItem {
+  int64_t t_ns = 0;
+  uint64_t epoch = 0;  // M frame generation (filter restarts and resets increment it)
+  Transformation T_M_I;
+  cv::Mat image;       // the VIO camera's image (pool slot)
+};
+
+// Localizer -> filter.
+struct LocResultItem {
+  int64_t t_ns = 0;
+  uint64_t epoch = 0;
+  Transformation T_M_I;  // the filter's pose at that frame
+  localizer::LocalizationStatus status = localizer::LocalizationStatus::kNoKeypoints;
+  Transformation T_G_I;
+  Matrix6d covariance_I = Matrix6d::Zero();
+  int inliers = 0;
+};
+
 struct OutputItem {
   int64_t t_ns = 0;  // state time, IMU clock [ns]
   int32_t status = pose_t::INVALID;
@@ -255,6 +311,12 @@ struct OutputItem {
   int64_t synced_steady_ns = 0;
   int64_t filter_start_ns = 0;
   int64_t filtered_steady_ns = 0;
+  // LOC mode, once T_G_M is known: T_G_I of this frame.
+  bool global = false;
+  double g_position[3] = {0, 0, 0};
+  double g_orientation[4] = {1, 0, 0, 0};
+  double g_velocity[3] = {0, 0, 0};
+  double g_covariance[36] = {};
 };
 
 template <typename T>
@@ -277,6 +339,7 @@ struct EstimatorDaemon::Impl {
   // ---- shared state ----
   std::atomic<bool> stop{false};
   std::atomic<bool> input_done{false}, sync_done{false}, filter_done{false}, map_done{false};
+  std::atomic<bool> loc_done{false};
   std::atomic<int> frames_in_flight{0};
   std::array<std::atomic<int64_t>, kNumCounters> counters{};
   std::atomic<int> filter_state{pose_t::INITIALIZING};
@@ -308,6 +371,17 @@ struct EstimatorDaemon::Impl {
   bool stream_finished = false;
   std::string map_error;
   std::string map_report;
+
+  // ---- localizer stage ----
+  bool localization_enabled = false;
+  std::unique_ptr<localizer::Localizer> loc;                  // const, used by the loc thread
+  std::unique_ptr<localizer::FeatureExtractor> loc_extractor;  // loc thread only
+  std::unique_ptr<Spsc<LocItem>> loc_queue;                   // filter -> localizer
+  std::unique_ptr<Spsc<LocResultItem>> loc_result_queue;      // localizer -> filter
+  std::atomic<int> loc_in_flight{0};
+  Wakeup loc_wake;
+  std::string loc_report;
+  std::string pose_channel;
 
   // ---- input stage (input thread only) ----
   std::unique_ptr<lcm::LCM> input_lcm;   // live mode
@@ -346,6 +420,10 @@ struct EstimatorDaemon::Impl {
 
   // ---- publisher ----
   void PublishLoop();
+
+  // ---- localizer stage ----
+  void SetUpLocalization();
+  void LocLoop();
   void PublishStatus(int state, int64_t now_ns);
   LatencyWindow lat_receive, lat_sync, lat_filter_wait, lat_filter, lat_publish, lat_total;
   int64_t last_cpu_us = -1, last_cpu_wall_ns = 0;
@@ -385,7 +463,11 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   // the frames queued for the builder (mapping.max_frames_in_flight, the one it works on
   // included) hold theirs too.
   mapping_enabled = options.mapping.enabled;
-  const int needed =
+  localization_enabled = options.localization.enabled;
+  // LOC mode: one image in the localizer (one query in flight) and one held by the filter
+  // while it decides.
+  const int needed_loc = localization_enabled ? 2 : 0;
+  const int needed = needed_loc +
       mapping_enabled
           ? num_cameras * (options.sync.max_pending_frames + 2 +
                            options.queues.max_frames_in_flight + 1 +
@@ -411,6 +493,7 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   imu_channel = ChannelName(options.channels.imu, options.channel_suffix);
   odom_channel = ChannelName(options.channels.odometry, options.channel_suffix);
   status_channel = ChannelName(options.channels.status, options.channel_suffix);
+  pose_channel = ChannelName(options.channels.pose, options.channel_suffix);
   for (auto& c : counters) c.store(0);
   for (auto& t : last_log_ns) t.store(0);
 
@@ -434,6 +517,99 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
     }
   }
   if (mapping_enabled) SetUpMapping();
+  if (localization_enabled) SetUpLocalization();
+}
+
+void EstimatorDaemon::Impl::SetUpLocalization() {
+  const LocalizationOptions& lo = options.localization;
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const auto t0 = std::chrono::steady_clock::now();
+  auto map = std::make_shared<localizer::LocalizationMap>();
+  if (fs::is_directory(lo.map, ec)) {
+    // A VI-map folder: the localization summary map is built from it now.
+    const mapstore::VIMap vimap = mapstore::LoadMap(lo.map);
+    localizer::LocalizerOptions lopt = lo.localizer_file.empty()
+                                           ? localizer::LocalizerOptions()
+                                           : localizer::LoadLocalizerOptions(lo.localizer_file);
+    *map = localizer::BuildLocalizationMap(vimap, lopt.map);
+  } else if (fs::is_regular_file(lo.map, ec)) {
+    *map = localizer::LoadLocalizationMap(lo.map);
+  } else {
+    throw InputError(FormatInputError(lo.map, "localization.map / --localization-map",
+                                      "a localization map file or a VI-map folder"));
+  }
+  if (map->num_landmarks() == 0) {
+    throw InputError(FormatInputError(lo.map, "localization.map", "a map with good landmarks"));
+  }
+  const localizer::LocalizerOptions lopt = lo.localizer_file.empty()
+                                               ? localizer::LocalizerOptions()
+                                               : localizer::LoadLocalizerOptions(lo.localizer_file);
+  loc = std::make_unique<localizer::Localizer>(map, lopt);
+  // The features of the map builder (the maps are built with them).
+  loc_extractor = std::make_unique<localizer::FeatureExtractor>(options.mapping.map_builder.features);
+  loc_queue = std::make_unique<Spsc<LocItem>>(4);
+  loc_result_queue = std::make_unique<Spsc<LocResultItem>>(4);
+  std::ostringstream r;
+  r << "localization map " << lo.map << ": " << map->num_landmarks() << " landmarks, "
+    << map->num_descriptors() << " descriptors, loaded and indexed in "
+    << static_cast<int>(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count())
+    << " ms";
+  loc_report = r.str();
+  std::fprintf(stderr, "vilma-estimatord: %s\n", loc_report.c_str());
+}
+
+// The localizer thread: extracts the keyframe features of each frame handed over and localizes
+// them against the map (Localizer::Localize: retrieval, covisibility, P3P RANSAC); the result
+// goes back to the filter thread, which owns the T_G_M estimate.
+void EstimatorDaemon::Impl::LocLoop() {
+  const CameraConfig& cam = rig.cameras[static_cast<std::size_t>(options.vio_camera)];
+  LatencyWindow stage_ms;
+  double max_us = 0.0;
+  std::vector<Eigen::Vector2d> uv;
+  LocItem item;
+  while (true) {
+    bool any = false;
+    while (loc_queue->pop(item)) {
+      any = true;
+      const int64_t t0 = SteadyNs();
+      const localizer::KeyframeFeatures f = loc_extractor->Extract(item.image);
+      item.image.release();  // back to the pool
+      uv.clear();
+      for (const cv::KeyPoint& k : f.keypoints) uv.emplace_back(k.pt.x, k.pt.y);
+      LocResultItem out;
+      out.t_ns = item.t_ns;
+      out.epoch = item.epoch;
+      out.T_M_I = item.T_M_I;
+      if (uv.empty()) {
+        out.status = localizer::LocalizationStatus::kNoKeypoints;
+      } else {
+        const localizer::LocalizationResult r =
+            loc->Localize(cam.camera, cam.T_I_C, uv, f.descriptors.ptr<uint8_t>());
+        out.status = r.status;
+        out.T_G_I = r.T_G_I;
+        out.covariance_I = r.covariance_I;
+        out.inliers = static_cast<int>(r.inliers.size());
+      }
+      const double ms = static_cast<double>(SteadyNs() - t0) * 1e-6;
+      stage_ms.Add(ms);
+      max_us = std::max(max_us, ms * 1e3);
+      counters[kLocStageUsP50].store(static_cast<int64_t>(stage_ms.Percentile(0.5) * 1e3),
+                                     std::memory_order_relaxed);
+      counters[kLocStageUsMax].store(static_cast<int64_t>(max_us), std::memory_order_relaxed);
+      // Capacity 4 with at most one query in flight: never full.
+      while (!loc_result_queue->push(out) && !stop.load()) {
+        std::this_thread::sleep_for(std::chrono::microseconds(200));
+      }
+      loc_in_flight.fetch_sub(1);
+      filter_wake.Notify();
+    }
+    if (!any) {
+      if (filter_done.load() && loc_queue->read_available() == 0) break;
+      loc_wake.Wait(50 * kMs);
+    }
+  }
+  loc_done.store(true);
 }
 
 void EstimatorDaemon::Impl::SetUpMapping() {
@@ -532,7 +708,7 @@ void EstimatorDaemon::Impl::OnLcmMessage(const lcm::ReceiveBuffer* rbuf,
 
 void EstimatorDaemon::Impl::Dispatch(const std::string& channel, const void* data, int size) {
   const int64_t recv_ns = SteadyNs();
-  const int64_t recv_wall_us = WallUs();
+  const int64_t recv_wall_us = WallClockUtime();
   if (channel == imu_channel) {
     HandleImu(data, size, recv_ns, recv_wall_us);
     return;
@@ -814,6 +990,50 @@ void EstimatorDaemon::Impl::FilterLoop() {
   bool map_has_vertex = false;
   int64_t map_last_vertex_ns = 0;
   MapItem map_item;
+  // ---- LOC mode: T_G_M from the localizer's results (docs/daemon.md "Localization").
+  GlobalFrameEstimator global_frame(options.localization);
+  uint64_t epoch = 0;  // M frame generation: results of an older M are stale
+  bool loc_has_query = false;
+  int64_t loc_last_query_ns = 0;
+  int64_t loc_tracked_frames = 0;
+  const double loc_rate = options.localization.max_rate_hz;
+  const int64_t loc_min_dt_ns = static_cast<int64_t>(0.9e9 / loc_rate);
+  // --input-log: exactly every N-th tracking frame, N from the camera and localization rates.
+  const double camera_rate = rig.cameras[static_cast<std::size_t>(vio)].rate_hz;
+  const int64_t loc_every_n =
+      std::max<int64_t>(1, std::llround(camera_rate > 0.0 ? camera_rate / loc_rate : 1.0));
+  auto reset_global = [&] {
+    ++epoch;
+    if (global_frame.initialized()) Count(kLocTgmResets);
+    global_frame.Reset();
+    counters[kLocInitialized].store(0, std::memory_order_relaxed);
+  };
+  auto apply_result = [&](const LocResultItem& res) {
+    using localizer::LocalizationStatus;
+    static_assert(static_cast<int>(LocalizationStatus::kNumStatuses) == 6, "status counters");
+    Count(static_cast<Counter>(kLocOk + static_cast<int>(res.status)));
+    if (res.status != LocalizationStatus::kOk) return;
+    if (res.epoch != epoch) {
+      Count(kLocRejectedStale);
+      return;
+    }
+    if (res.inliers < options.localization.min_inliers) {
+      Count(kLocRejectedInliers);
+      return;
+    }
+    switch (global_frame.Update(res.T_G_I, res.covariance_I, res.T_M_I)) {
+      case GlobalFrameUpdate::kAccepted: Count(kLocTgmUpdates); break;
+      case GlobalFrameUpdate::kRejectedGravity: Count(kLocRejectedGravity); break;
+      case GlobalFrameUpdate::kRejectedJump: Count(kLocRejectedJump); break;
+      case GlobalFrameUpdate::kReinitialized:
+        Count(kLocRejectedJump);
+        Count(kLocTgmResets);
+        Count(kLocTgmUpdates);
+        break;
+    }
+    counters[kLocInitialized].store(global_frame.initialized() ? 1 : 0, std::memory_order_relaxed);
+  };
+  LocResultItem loc_result;
   FilterItem item;
   while (true) {
     bool any = false;
@@ -833,6 +1053,7 @@ void EstimatorDaemon::Impl::FilterLoop() {
         resets_before_restart += filter->stats().resets;
         filter = std::make_unique<estimator::VioFilter>(rig, vio, options.estimator);
         ever_initialized = false;
+        if (localization_enabled) reset_global();  // a new M frame
       } else {
         if (options.fault_stall_filter_after >= 0 && frames >= options.fault_stall_filter_after) {
           // Fault injection (--fault-stall-filter-after): the filter stops making progress,
@@ -847,6 +1068,8 @@ void EstimatorDaemon::Impl::FilterLoop() {
         out.filter_start_ns = SteadyNs();
         const estimator::FrameResult r = filter->AddImage(item.t_cam_ns, item.image);
         out.filtered_steady_ns = SteadyNs();
+        cv::Mat loc_image;  // LOC mode: the image may go to the localizer
+        if (localization_enabled) loc_image = item.image;
         item.image.release();  // back to the pool
         frames_in_flight.fetch_sub(1);
         ++frames;
@@ -897,6 +1120,69 @@ void EstimatorDaemon::Impl::FilterLoop() {
           }
         }
         for (cv::Mat& m : item.map_images) m.release();  // back to the pool
+        if (localization_enabled) {
+          if (r.reset) reset_global();  // the filter re-initializes: a new M frame
+          // Live: results that came back since the last frame.
+          while (loc_result_queue->pop(loc_result)) apply_result(loc_result);
+          if (r.pose_valid && !r.reset) {
+            bool wanted;
+            if (log_mode) {
+              wanted = loc_tracked_frames % loc_every_n == 0;
+            } else {
+              wanted = !loc_has_query || r.t_ns - loc_last_query_ns >= loc_min_dt_ns;
+            }
+            ++loc_tracked_frames;
+            if (!wanted) {
+              Count(kLocThinned);
+            } else if (!log_mode && loc_in_flight.load() > 0) {
+              Count(kLocBusy);  // the next frame tries again
+            } else {
+              LocItem q;
+              q.t_ns = r.t_ns;
+              q.epoch = epoch;
+              q.T_M_I = r.T_M_I;
+              q.image = loc_image;
+              loc_in_flight.fetch_add(1);
+              if (loc_queue->push(q)) {
+                Count(kLocAttempts);
+                loc_has_query = true;
+                loc_last_query_ns = r.t_ns;
+                loc_wake.Notify();
+                if (log_mode) {
+                  // Deterministic: the result is applied at this very frame on every run.
+                  while (loc_in_flight.load() > 0 && !stop.load()) {
+                    notifier.PetWatchdog(SteadyNs());
+                    std::this_thread::sleep_for(std::chrono::microseconds(100));
+                  }
+                  while (loc_result_queue->pop(loc_result)) apply_result(loc_result);
+                }
+              } else {
+                loc_in_flight.fetch_sub(1);
+                Count(kLocBusy);
+              }
+              q.image.release();
+            }
+          }
+          loc_image.release();
+          if (r.pose_valid && !r.reset && global_frame.initialized()) {
+            // VILMA_POSE: T_G_I = T_G_M T_M_I.
+            const Transformation T_G_M = global_frame.T_G_M();
+            const Transformation T_G_I = T_G_M * r.T_M_I;
+            const Eigen::Quaterniond& qg = T_G_I.rotation();
+            const Eigen::Vector3d v_G = T_G_M.rotation() * filter->state().v_W;
+            out.global = true;
+            for (int i = 0; i < 3; ++i) {
+              out.g_position[i] = T_G_I.translation()[i];
+              out.g_velocity[i] = v_G[i];
+            }
+            out.g_orientation[0] = qg.w();
+            out.g_orientation[1] = qg.x();
+            out.g_orientation[2] = qg.y();
+            out.g_orientation[3] = qg.z();
+            // Filled below from the odometry covariance rotated into G, plus the T_G_M
+            // uncertainty (position block, yaw variance on the z rotation).
+          }
+        }
         if (r.pose_valid) ever_initialized = true;
         int32_t status = pose_t::INITIALIZING;
         if (r.reset || (!r.pose_valid && ever_initialized)) {
@@ -941,6 +1227,21 @@ void EstimatorDaemon::Impl::FilterLoop() {
             for (int i = 0; i < 6; ++i) {
               for (int j = 0; j < 6; ++j) out.covariance[6 * i + j] = C(i, j);
             }
+            if (out.global) {
+              // Global error in G: rotate the M blocks with R_G_M, add the T_G_M covariance
+              // (position; yaw on the z rotation). Cross terms between both neglected.
+              Matrix6d A = Matrix6d::Zero();
+              const Eigen::Matrix3d R_G_M = global_frame.T_G_M().rotation().toRotationMatrix();
+              A.block<3, 3>(0, 0) = R_G_M;
+              A.block<3, 3>(3, 3) = R_G_M;
+              Matrix6d G = A * C * A.transpose();
+              const Eigen::Matrix4d P_gm = global_frame.covariance();
+              G.block<3, 3>(0, 0) += P_gm.block<3, 3>(0, 0);
+              G(5, 5) += P_gm(3, 3);
+              for (int i = 0; i < 6; ++i) {
+                for (int j = 0; j < 6; ++j) out.g_covariance[6 * i + j] = G(i, j);
+              }
+            }
           }
         }
         const bool pushed = log_mode ? PushBlocking(output_queue, out) : output_queue.push(out);
@@ -963,6 +1264,7 @@ void EstimatorDaemon::Impl::FilterLoop() {
   filter_done.store(true);
   output_wake.Notify();
   map_wake.Notify();
+  loc_wake.Notify();
 }
 
 void EstimatorDaemon::Impl::PushMap(const MapItem& item) {
@@ -1138,7 +1440,7 @@ void EstimatorDaemon::Impl::PublishStatus(int state, int64_t now_ns) {
   last_cpu_wall_ns = now_ns;
 
   status_t msg;
-  msg.utime = WallUs();
+  msg.utime = WallClockUtime();
   msg.node = "vilma-estimatord";
   msg.state = state;
   const int fstate = filter_state.load();
@@ -1199,6 +1501,10 @@ void EstimatorDaemon::Impl::PublishLoop() {
   msg.parent_frame = "M";
   msg.child_frame = "I";
   int64_t seq = 0;
+  pose_t gmsg;  // VILMA_POSE (LOC mode)
+  gmsg.parent_frame = "G";
+  gmsg.child_frame = "I";
+  int64_t gseq = 0;
   const int64_t period_ns = SecondsToNs(options.status_period_s);
   int64_t next_status_ns = SteadyNs();
   OutputItem out;
@@ -1217,6 +1523,18 @@ void EstimatorDaemon::Impl::PublishLoop() {
       std::copy(out.covariance, out.covariance + 36, msg.covariance);
       msg.status = out.status;
       publish_lcm->publish(odom_channel, &msg);
+      if (out.global) {
+        gmsg.utime = msg.utime;
+        gmsg.seq = gseq++;
+        std::copy(out.g_position, out.g_position + 3, gmsg.position);
+        std::copy(out.g_orientation, out.g_orientation + 4, gmsg.orientation);
+        std::copy(out.g_velocity, out.g_velocity + 3, gmsg.velocity);
+        std::copy(out.angular_velocity, out.angular_velocity + 3, gmsg.angular_velocity);
+        std::copy(out.g_covariance, out.g_covariance + 36, gmsg.covariance);
+        gmsg.status = pose_t::LOCALIZED;
+        publish_lcm->publish(pose_channel, &gmsg);
+        Count(kLocPosesPublished);
+      }
       const int64_t published = SteadyNs();
       Count(kPosesPublished);
       lat_receive.Add(static_cast<double>(out.recv_latency_us) * 1e-3);
@@ -1260,6 +1578,8 @@ DaemonSummary EstimatorDaemon::Run() {
   std::thread sync([&] { d.SyncLoop(); });
   std::thread map_thread;
   if (d.mapping_enabled) map_thread = std::thread([&] { d.MapLoop(); });
+  std::thread loc_thread;
+  if (d.localization_enabled) loc_thread = std::thread([&] { d.LocLoop(); });
   // Subscribed (constructor) and every stage is up.
   d.notifier.Ready();
   d.notifier.Status(d.log_mode ? "reading " + d.options.input_log : "running");
@@ -1269,6 +1589,7 @@ DaemonSummary EstimatorDaemon::Run() {
   sync.join();
   filter.join();
   if (map_thread.joinable()) map_thread.join();
+  if (loc_thread.joinable()) loc_thread.join();
   publisher.join();
   if (!d.stop.load()) d.notifier.Stopping();
   // Close LCM: a file:// provider flushes its file here (the output of an --input-log run).

@@ -125,3 +125,45 @@ TEST_CASE("map building options: strict, validated, read back", "[daemon][mappin
 
 }  // namespace
 }  // namespace vilma::daemon
+
+namespace vilma::daemon {
+namespace {
+
+TEST_CASE("localization options: strict, validated, read back", "[daemon][localization]") {
+  const std::string good = DefaultConfigText();
+  const DaemonOptions d = ParseDaemonOptions(good, "daemon.yaml");
+  CHECK_FALSE(d.localization.enabled);
+  CHECK(d.localization.max_rate_hz == 2.0);
+  // Enabled without a map, a map without enabled, bad values, unknown keys: each named.
+  CHECK_THAT(ErrorOf(Replace(good, "enabled: false          # run the localizer",
+                             "enabled: true          # run the localizer")),
+             Catch::Contains("localization.map"));
+  CHECK_THAT(ErrorOf(Replace(good, "map: \"\"", "map: room.vlocmap")), Catch::Contains("localization.map"));
+  CHECK_THAT(ErrorOf(Replace(good, "max_rate_hz: 2.0", "max_rate_hz: 0")),
+             Catch::Contains("localization.max_rate_hz"));
+  CHECK_THAT(ErrorOf(Replace(good, "min_inliers: 30", "min_inliers: 2")),
+             Catch::Contains("localization.min_inliers"));
+  CHECK_THAT(ErrorOf(Replace(good, "max_jump_m: 0.5", "max_jump_m: -1")),
+             Catch::Contains("localization.max_jump_m"));
+  CHECK_THAT(ErrorOf(Replace(good, "max_gravity_misalignment_deg: 3.0", "max_gravity_misalignment_deg: 0")),
+             Catch::Contains("localization.max_gravity_misalignment_deg"));
+  CHECK_THAT(ErrorOf(Replace(good, "forgetting_factor: 0.8", "forgetting_factor: 1.5")),
+             Catch::Contains("localization.forgetting_factor"));
+  CHECK_THAT(ErrorOf(Replace(good, "max_consecutive_gated: 5", "max_consecutive_gated: 5\n  bogus: 1")),
+             Catch::Contains("bogus"));
+  CHECK_THAT(ErrorOf(Replace(good, "min_consistent_results: 2", "")),
+             Catch::Contains("min_consistent_results"));
+  // Read back (the map path is absolute after the round trip).
+  DaemonOptions o;
+  o.localization.enabled = true;
+  o.localization.map = "/maps/room.vlocmap";
+  o.localization.max_rate_hz = 5.0;
+  o.localization.max_jump_deg = 7.5;
+  const DaemonOptions back = ParseDaemonOptions(DaemonOptionsToYaml(o), "effective.yaml");
+  CHECK(DaemonOptionsToYaml(back) == DaemonOptionsToYaml(o));
+  CHECK(back.localization.map == "/maps/room.vlocmap");
+  CHECK(back.localization.max_rate_hz == 5.0);
+}
+
+}  // namespace
+}  // namespace vilma::daemon

@@ -21,7 +21,7 @@ struct ChannelOptions {
   std::vector<std::string> cameras = {"CAM0", "CAM1"};
   std::string imu = "IMU";
   std::string odometry = "VILMA_ODOM";  // pose_t T_M_I, every frame
-  std::string pose = "VILMA_POSE";      // pose_t T_G_I (localization; not published yet)
+  std::string pose = "VILMA_POSE";      // pose_t T_G_I (LOC mode, once T_G_M is known)
   std::string status = "VILMA_STATUS";  // status_t
   std::string Validate() const;
 };
@@ -84,6 +84,33 @@ struct MappingOptions {
   std::string Validate() const;
 };
 
+// LOC mode (docs/daemon.md "Localization"): a localizer stage against a prior map; the filter
+// thread estimates T_G_M from its results and publishes VILMA_POSE (T_G_I).
+struct LocalizationOptions {
+  bool enabled = false;
+  // A localization map file (SaveLocalizationMap) or a VI-map folder (the localization map is
+  // built from it at start). --localization-map sets it (and enabled).
+  std::string map;
+  // Localizer options: a file like config/localizer.yaml (relative to the daemon config), or
+  // "" for the built-in defaults.
+  std::string localizer_file;
+  double max_rate_hz = 2.0;  // localization queries at most this often [Hz]
+  int min_inliers = 30;      // results with fewer RANSAC inliers are not used (loc_rejected_inliers)
+  // Gating of T_G_M measurements against the current estimate (after initialization).
+  double max_jump_m = 0.5;      // position [m]
+  double max_jump_deg = 5.0;    // yaw [deg]
+  // Both G and M are gravity aligned: T_G_M must be a yaw rotation. A measurement whose
+  // roll/pitch exceeds this is rejected [deg].
+  double max_gravity_misalignment_deg = 3.0;
+  int min_consistent_results = 2;  // consistent results before VILMA_POSE is published
+  // Information kept per update of the T_G_M estimate (1 = plain inverse-covariance average,
+  // < 1 lets the estimate follow the VIO drift) [fraction].
+  double forgetting_factor = 0.8;
+  // Consecutive gated (jumping) results after which the estimate is dropped and re-initialized.
+  int max_consecutive_gated = 5;
+  std::string Validate() const;
+};
+
 struct DaemonOptions {
   std::string rig;             // sensor rig YAML ("" = must come from --rig)
   std::string lcm_url;         // "" = $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0
@@ -101,6 +128,7 @@ struct DaemonOptions {
   ChannelOptions channels;
   QueueOptions queues;
   MappingOptions mapping;
+  LocalizationOptions localization;
 
   // Command line only (not in YAML).
   std::string input_log;  // read this lcm-logger file instead of subscribing (deterministic)

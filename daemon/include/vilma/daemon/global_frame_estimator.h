@@ -1,0 +1,56 @@
+// T_G_M estimation for LOC mode (docs/daemon.md "Localization"): from localization results
+// T_G_I (with covariance) and the filter's T_M_I of the same frame, the transformation from the
+// odometry frame M to the map frame G. Both frames are gravity aligned, so T_G_M has 4 degrees
+// of freedom (x, y, z, yaw); measurements with roll/pitch are rejected, measurements that jump
+// from the estimate are gated, and the accepted ones are fused by inverse-covariance weighting
+// with a forgetting factor (an information filter on a random-walk state). Filter thread only.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+
+#include "vilma/core/geometry.h"
+#include "vilma/daemon/daemon_options.h"
+
+namespace vilma::daemon {
+
+enum class GlobalFrameUpdate : uint8_t {
+  kAccepted,          // fused into the estimate (or started a new candidate)
+  kRejectedGravity,   // roll/pitch of T_G_M beyond max_gravity_misalignment_deg
+  kRejectedJump,      // beyond max_jump_m / max_jump_deg from the estimate
+  kReinitialized,     // max_consecutive_gated jumps in a row: the estimate restarts from this one
+};
+
+class GlobalFrameEstimator {
+ public:
+  explicit GlobalFrameEstimator(const LocalizationOptions& options) : options_(options) {}
+
+  // T_G_I: the localization result, covariance_I of xi in T_G_I Exp(xi), xi = [rho; phi]
+  // [m^2, rad^2]; T_M_I: the filter's pose at that same frame.
+  GlobalFrameUpdate Update(const Transformation& T_G_I, const Matrix6d& covariance_I,
+                           const Transformation& T_M_I);
+  // Drops the estimate (a new M frame: filter restart or reset).
+  void Reset();
+
+  // At least min_consistent_results consistent measurements fused.
+  bool initialized() const { return consistent_ >= options_.min_consistent_results; }
+  Transformation T_G_M() const;
+  // Covariance of (x, y, z, yaw) [m^2, rad^2].
+  Eigen::Matrix4d covariance() const;
+  const Eigen::Vector4d& state() const { return x_; }
+
+  // The 4-DoF measurement z = (p_G_M, yaw) and its covariance from a result (public for tests).
+  // Returns the tilt of R_G_M (angle between its z axis and G's) [rad].
+  static double Measure(const Transformation& T_G_I, const Matrix6d& covariance_I,
+                        const Transformation& T_M_I, Eigen::Vector4d* z, Eigen::Matrix4d* R);
+
+ private:
+  LocalizationOptions options_;
+  bool has_estimate_ = false;
+  int consistent_ = 0;       // measurements fused since the last (re)start
+  int consecutive_gated_ = 0;
+  Eigen::Vector4d x_ = Eigen::Vector4d::Zero();        // (x, y, z, yaw) [m, rad]
+  Eigen::Matrix4d info_ = Eigen::Matrix4d::Zero();     // information matrix
+};
+
+}  // namespace vilma::daemon

@@ -1,0 +1,124 @@
+#include "vilma/daemon/global_frame_estimator.h"
+
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <Eigen/Geometry>
+#include <cmath>
+
+namespace vilma::daemon {
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+// Floors of the measurement standard deviations: the P3P covariance only holds the pixel
+// noise, not map errors or the VIO's own uncertainty at that frame [m, rad].
+constexpr double kMinSigmaPosition = 0.01;
+constexpr double kMinSigmaYaw = 0.2 * kDegToRad;
+
+double WrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
+
+}  // namespace
+
+double GlobalFrameEstimator::Measure(const Transformation& T_G_I, const Matrix6d& covariance_I,
+                                     const Transformation& T_M_I, Eigen::Vector4d* z,
+                                     Eigen::Matrix4d* R) {
+  // T_G_M = T_G_I T_M_I^-1 (yaw and translation kept). A right perturbation of the result,
+  // T_G_I Exp(xi), is the left perturbation Exp(Ad_{T_G_I} xi) T_G_I (the VIO's uncertainty of
+  // T_M_I is neglected: small over the seconds between localizations; the floors cover it).
+  const Transformation T_G_M = T_G_I * T_M_I.inverse();
+  const Eigen::Matrix3d R_G_M = T_G_M.rotation().toRotationMatrix();
+  const double yaw = std::atan2(R_G_M(1, 0), R_G_M(0, 0));
+  // The position goes with the yaw-only rotation, p_G_M = p_G_I - Rz(yaw) p_M_I, so that the
+  // published T_G_M T_M_I reproduces the measured position at this frame exactly (with the
+  // full R_G_M, the VIO's small roll/pitch error times |p_M_I| would become a position error).
+  const Eigen::Vector3d Rz_p_M_I = Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()) * T_M_I.translation();
+  const Eigen::Vector3d p = T_G_I.translation() - Rz_p_M_I;
+  (*z) << p, yaw;
+  // Left perturbation of T_G_I, eps = [rho; phi] = Ad_{T_G_I} xi: p_G_I' = p_G_I + rho +
+  // phi x p_G_I, yaw' = yaw + phi_z (first order, R_G_M nearly a yaw rotation), so
+  //   dz/deps = [I, -[p_G_I]x - (e_z x Rz p_M_I) e_z^T; 0, e_z^T].
+  Eigen::Matrix<double, 4, 6> J = Eigen::Matrix<double, 4, 6>::Zero();
+  J.block<3, 3>(0, 0).setIdentity();
+  J.block<3, 3>(0, 3) = -Skew(T_G_I.translation());
+  J.block<3, 1>(0, 5) -= Eigen::Vector3d::UnitZ().cross(Rz_p_M_I);
+  J(3, 5) = 1.0;
+  const Matrix6d Ad = T_G_I.Adjoint();
+  *R = J * Ad * covariance_I * Ad.transpose() * J.transpose();
+  R->diagonal() += Eigen::Vector4d(kMinSigmaPosition * kMinSigmaPosition,
+                                   kMinSigmaPosition * kMinSigmaPosition,
+                                   kMinSigmaPosition * kMinSigmaPosition,
+                                   kMinSigmaYaw * kMinSigmaYaw);
+  const double c = std::clamp(R_G_M(2, 2), -1.0, 1.0);  // cos of the tilt of M's z axis in G
+  return std::acos(c);
+}
+
+void GlobalFrameEstimator::Reset() {
+  has_estimate_ = false;
+  consistent_ = 0;
+  consecutive_gated_ = 0;
+  x_.setZero();
+  info_.setZero();
+}
+
+GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
+                                               const Matrix6d& covariance_I,
+                                               const Transformation& T_M_I) {
+  Eigen::Vector4d z;
+  Eigen::Matrix4d R;
+  const double tilt = Measure(T_G_I, covariance_I, T_M_I, &z, &R);
+  if (!(tilt <= options_.max_gravity_misalignment_deg * kDegToRad) || !z.allFinite() ||
+      !R.allFinite()) {
+    return GlobalFrameUpdate::kRejectedGravity;
+  }
+  const Eigen::Matrix4d W = R.llt().solve(Eigen::Matrix4d::Identity());  // R^-1
+  auto start = [&] {
+    has_estimate_ = true;
+    consistent_ = 1;
+    consecutive_gated_ = 0;
+    x_ = z;
+    info_ = W;
+  };
+  if (!has_estimate_) {
+    start();
+    return GlobalFrameUpdate::kAccepted;
+  }
+  Eigen::Vector4d dz = z - x_;
+  dz[3] = WrapAngle(dz[3]);
+  const bool jump = dz.head<3>().norm() > options_.max_jump_m ||
+                    std::abs(dz[3]) > options_.max_jump_deg * kDegToRad;
+  if (jump) {
+    if (!initialized()) {
+      // Not confirmed yet: the newest result becomes the candidate (the previous one may have
+      // been the outlier).
+      start();
+      return GlobalFrameUpdate::kAccepted;
+    }
+    if (++consecutive_gated_ >= options_.max_consecutive_gated) {
+      // The estimate itself is wrong (or M moved, e.g. a filter reset we did not see).
+      start();
+      return GlobalFrameUpdate::kReinitialized;
+    }
+    return GlobalFrameUpdate::kRejectedJump;
+  }
+  // Information filter with forgetting (a random walk on T_G_M that follows the VIO drift):
+  //   Lambda_k = f Lambda_{k-1} + W,   x_k = x_{k-1} + Lambda_k^-1 W (z - x_{k-1}),
+  // the inverse-covariance weighted average of the measurements with weights decaying by f
+  // per update.
+  consecutive_gated_ = 0;
+  info_ = options_.forgetting_factor * info_ + W;
+  x_ += info_.llt().solve(W * dz);
+  x_[3] = WrapAngle(x_[3]);
+  ++consistent_;
+  return GlobalFrameUpdate::kAccepted;
+}
+
+Transformation GlobalFrameEstimator::T_G_M() const {
+  return Transformation(Eigen::Quaterniond(Eigen::AngleAxisd(x_[3], Eigen::Vector3d::UnitZ())),
+                        x_.head<3>());
+}
+
+Eigen::Matrix4d GlobalFrameEstimator::covariance() const {
+  if (!has_estimate_) return Eigen::Matrix4d::Zero();
+  return info_.llt().solve(Eigen::Matrix4d::Identity());
+}
+
+}  // namespace vilma::daemon
