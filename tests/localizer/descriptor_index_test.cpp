@@ -5,44 +5,15 @@
 #include <iostream>
 #include <random>
 
+#include "localizer/synthetic_descriptors.h"
+
 using namespace vilma::localizer;
 
 namespace {
 
 constexpr int kBytes = 64;
 
-// BRISK-like synthetic descriptors: BRISK bits are intensity comparisons of a smooth patch, so
-// they are strongly correlated. Model: a landmark has a latent appearance z ~ N(0, I_32); bit j
-// of an observation is sign(w_j . (z + dz) + e_j) with fixed random w_j, viewpoint change
-// dz ~ N(0, s_z^2 I) and pixel noise e_j ~ N(0, s_e^2). The noise levels give the bit-flip
-// rates of real BRISK matches (here a mean Hamming distance of true matches of ~77 of 512
-// bits, 15%).
-struct SyntheticDescriptors {
-  Eigen::MatrixXd W;  // 512 x 32
-  std::mt19937_64 rng;
-  double s_z, s_e;
-  SyntheticDescriptors(uint64_t seed, double sz, double se) : W(512, 32), rng(seed), s_z(sz), s_e(se) {
-    std::normal_distribution<double> n;
-    for (int i = 0; i < W.size(); ++i) W.data()[i] = n(rng);
-    W.rowwise().normalize();
-  }
-  Eigen::VectorXd Latent() {
-    std::normal_distribution<double> n;
-    Eigen::VectorXd z(32);
-    for (int i = 0; i < 32; ++i) z[i] = n(rng);
-    return z;
-  }
-  void Observe(const Eigen::VectorXd& z, uint8_t* out) {
-    std::normal_distribution<double> n;
-    Eigen::VectorXd zz = z;
-    for (int i = 0; i < 32; ++i) zz[i] += s_z * n(rng);
-    const Eigen::VectorXd a = W * zz;
-    std::memset(out, 0, kBytes);
-    for (int j = 0; j < 512; ++j) {
-      if (a[j] + s_e * n(rng) > 0) out[j / 8] |= static_cast<uint8_t>(1u << (j % 8));
-    }
-  }
-};
+using SyntheticDescriptors = vilma::localizer::testing::BriskLikeDescriptors;
 
 }  // namespace
 

@@ -9,6 +9,8 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+
+#include "localizer/synthetic_descriptors.h"
 #include <memory>
 #include <random>
 #include <sstream>
@@ -116,33 +118,7 @@ namespace {
 
 constexpr int kBytes = 64;
 
-struct BriskLikeDescriptors {
-  Eigen::MatrixXd W;  // 512 x 32
-  std::mt19937_64 rng;
-  double s_z, s_e;
-  BriskLikeDescriptors(uint64_t seed, double sz, double se)
-      : W(512, 32), rng(seed), s_z(sz), s_e(se) {
-    std::normal_distribution<double> n;
-    for (int i = 0; i < W.size(); ++i) W.data()[i] = n(rng);
-    W.rowwise().normalize();
-  }
-  Eigen::VectorXd Latent() {
-    std::normal_distribution<double> n;
-    Eigen::VectorXd z(32);
-    for (int i = 0; i < 32; ++i) z[i] = n(rng);
-    return z;
-  }
-  void Observe(const Eigen::VectorXd& z, uint8_t* out) {
-    std::normal_distribution<double> n;
-    Eigen::VectorXd zz = z;
-    for (int i = 0; i < 32; ++i) zz[i] += s_z * n(rng);
-    const Eigen::VectorXd a = W * zz;
-    std::memset(out, 0, kBytes);
-    for (int j = 0; j < 512; ++j) {
-      if (a[j] + s_e * n(rng) > 0) out[j / 8] |= static_cast<uint8_t>(1u << (j % 8));
-    }
-  }
-};
+using vilma::localizer::testing::BriskLikeDescriptors;
 
 double ThreadCpuMs() {
   timespec ts;
