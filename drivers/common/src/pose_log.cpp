@@ -1,0 +1,44 @@
+#include "vilma/drivers/pose_log.h"
+
+#include <cmath>
+#include <vilma/pose_t.hpp>
+
+#include "vilma/core/time.h"
+#include "vilma/drivers/lcm_log.h"
+
+namespace vilma {
+
+Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
+                       bool include_not_valid, PoseLogStats* stats) {
+  PoseLogStats local;
+  PoseLogStats& s = stats != nullptr ? *stats : local;
+  s = PoseLogStats();
+  Trajectory trajectory;
+  LcmLogReader reader(path);
+  LcmLogEvent event;
+  while (reader.Next(&event)) {
+    if (event.channel != channel) continue;
+    ++s.events_on_channel;
+    pose_t msg;
+    if (msg.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) {
+      ++s.malformed;
+      continue;
+    }
+    const Eigen::Vector3d p(msg.position[0], msg.position[1], msg.position[2]);
+    const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
+                               msg.orientation[3]);
+    if (!p.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3) {
+      ++s.malformed;
+      continue;
+    }
+    if (!include_not_valid &&
+        (msg.status == pose_t::INVALID || msg.status == pose_t::INITIALIZING)) {
+      ++s.not_valid;
+      continue;
+    }
+    trajectory.Add(UtimeToNs(msg.utime), Transformation(q, p));
+  }
+  return trajectory;
+}
+
+}  // namespace vilma
