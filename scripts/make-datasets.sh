@@ -11,16 +11,18 @@
 # <repo>/build/bin, then PATH.
 set -euo pipefail
 
-# name        preset     seed session seconds
+# revisit: 0 = the session draws its own path; S0 > 0 = it revisits session 0's path (made
+# with --seconds S0; vilma-sim --revisit), so that re-localization has something to find.
+# name        preset     seed session seconds revisit
 SETS=(
-  "room-easy  room       1    0       90"
-  "room-fast  room-fast  1    0       60"
-  "hall       hall       1    0       120"
-  "street     street     1    0       120"
-  "room-s2    room       1    1       60"
-  "room-s3    room       1    2       60"
-  "hall-s2    hall       1    1       60"
-  "hall-s3    hall       1    2       60"
+  "room-easy  room       1    0       90      0"
+  "room-fast  room-fast  1    0       60      0"
+  "hall       hall       1    0       120     0"
+  "street     street     1    0       120     0"
+  "room-s2    room       1    1       60      90"
+  "room-s3    room       1    2       60      90"
+  "hall-s2    hall       1    1       60      120"
+  "hall-s3    hall       1    2       60      120"
 )
 # Bump when the simulator's output changes, so that old caches are remade.
 SIM_VERSION=1
@@ -70,9 +72,14 @@ sim="$(find_sim)" || {
 mkdir -p "$out_dir"
 echo "datasets: $out_dir (vilma-sim: $sim)"
 for line in "${SETS[@]}"; do
-  read -r name preset seed session seconds <<<"$line"
+  read -r name preset seed session seconds revisit <<<"$line"
   if [[ -n "$only" && ",$only," != *",$name,"* ]]; then continue; fi
   key="version=$SIM_VERSION preset=$preset seed=$seed session=$session seconds=$seconds stereo=${stereo:+1}"
+  revisit_args=()
+  if [[ "$revisit" != "0" ]]; then
+    key="$key revisit=$revisit"
+    revisit_args=(--revisit "$revisit")
+  fi
   dir="$out_dir/$name"
   if [[ $force -eq 0 && -f "$dir/.vilma-sim-key" && "$(cat "$dir/.vilma-sim-key")" == "$key" \
         && -f "$dir/mav0/imu0/data.csv" ]]; then
@@ -82,7 +89,7 @@ for line in "${SETS[@]}"; do
   echo "$name: making ($key)"
   rm -rf "$dir.partial"
   "$sim" "$preset" --out "$dir.partial" --seed "$seed" --session "$session" \
-         --seconds "$seconds" $stereo
+         --seconds "$seconds" $stereo "${revisit_args[@]}"
   echo "$key" > "$dir.partial/.vilma-sim-key"
   rm -rf "$dir"
   mv "$dir.partial" "$dir"

@@ -30,6 +30,9 @@ Options:
   --session K          session number (default 0): same world and frame, other path/lighting
   --seconds T          sequence length in seconds (default 60), with a 3 s static start
   --seed N             seed of world, trajectories and noise (default 1)
+  --revisit S0         sessions > 0: follow session 0's path (as made with --seconds S0)
+                       with smooth offsets of ~0.6 m and ~15 deg, forwards or backwards,
+                       instead of an independent path (re-localization datasets)
   --stereo             also render cam1 (EuRoC cam1, ~11 cm baseline)
   --time-offset-ns D   camera time shift t_imu = t_cam + D (default 0)
   --motion-blur N      average N renders over the exposure (default 1: off)
@@ -89,6 +92,10 @@ int main(int argc, char** argv) {
       const std::string v = value("--session");
       if (!ParseInt64(v, &n) || n < 0) bad(arg, v, "a session number >= 0");
       options.session = static_cast<int>(n);
+    } else if (arg == "--revisit") {
+      const std::string v = value("--revisit");
+      if (!ParseDouble(v, &d)) bad(arg, v, "seconds of session 0");
+      options.revisit_seconds = d;
     } else if (arg == "--seconds") {
       const std::string v = value("--seconds");
       if (!ParseDouble(v, &d)) bad(arg, v, "seconds");

@@ -1,7 +1,9 @@
 #include "vilma/sim/trajectory.h"
 
 #include <catch2/catch.hpp>
+#include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 #include "vilma/core/geometry.h"
 
@@ -102,4 +104,86 @@ TEST_CASE("trajectories are deterministic per seed and differ between seeds", "[
     CHECK(a.Evaluate(t).T_W_I.translation() == b.Evaluate(t).T_W_I.translation());
   }
   CHECK((a.Evaluate(0.0).T_W_I.translation() - c.Evaluate(0.0).T_W_I.translation()).norm() > 0.1);
+}
+
+namespace {
+// Fraction of `query` samples (every 0.5 s after the static start) that some `reference` sample
+// sees from nearby: within `max_distance_m` and with the camera axes (body z) within
+// `max_angle_deg`.
+double ViewCoverage(const Trajectory& reference, const Trajectory& query, double max_distance_m,
+                    double max_angle_deg) {
+  int covered = 0, total = 0;
+  for (double t = 3.0; t <= query.duration_s(); t += 0.5, ++total) {
+    const vilma::Transformation q = query.Evaluate(t).T_W_I;
+    for (double s = 0.0; s <= reference.duration_s(); s += 0.1) {
+      const vilma::Transformation r = reference.Evaluate(s).T_W_I;
+      const double angle_deg = std::acos(std::clamp(
+          (q.rotation() * Vector3d::UnitZ()).dot(r.rotation() * Vector3d::UnitZ()), -1.0, 1.0)) *
+          180.0 / M_PI;
+      if ((q.translation() - r.translation()).norm() < max_distance_m && angle_deg < max_angle_deg) {
+        ++covered;
+        break;
+      }
+    }
+  }
+  return static_cast<double>(covered) / std::max(1, total);
+}
+}  // namespace
+
+TEST_CASE("revisiting sessions see what the reference session saw", "[sim][trajectory]") {
+  // The hall is large: an independent 60 s path rarely comes back to session 0's views (this
+  // is why the re-localization datasets revisit).
+  const vilma::sim::World world = vilma::sim::MakePresetWorld("hall", 1);
+  TrajectoryOptions o;
+  o.duration_s = 120.0;
+  const Trajectory reference = vilma::sim::GenerateTrajectory(world, o, 31);
+  o.duration_s = 60.0;
+  const Trajectory independent = vilma::sim::GenerateTrajectory(world, o, 32);
+  vilma::sim::RevisitOptions revisit;
+  TrajectoryReport report;
+  const Trajectory again =
+      vilma::sim::GenerateRevisitTrajectory(world, reference, o, revisit, 33, &report);
+  CHECK(again.duration_s() >= 60.0);
+  CHECK(report.collision_samples == 0);
+  CHECK(report.max_speed < 2.5);
+  CHECK(report.max_angular_rate < 1.6);
+  CHECK(report.min_view_depth > 0.5 * world.motion.min_view_depth);
+  const double covered = ViewCoverage(reference, again, 1.5, 30.0);
+  const double covered_independent = ViewCoverage(reference, independent, 1.5, 30.0);
+  INFO("coverage revisit " << covered << ", independent " << covered_independent);
+  CHECK(covered >= 0.9);
+  CHECK(covered_independent < 0.5);
+  // Not a copy: the views are offset (the offsets' stationary std is 0.6 m and 0.25 rad).
+  double mean_offset_m = 0.0;
+  int n = 0;
+  for (double t = 3.0; t <= 60.0; t += 0.5, ++n) {
+    const Vector3d p = again.Evaluate(t).T_W_I.translation();
+    double nearest = 1e9;
+    for (double s = 0.0; s <= reference.duration_s(); s += 0.05)
+      nearest = std::min(nearest, (reference.Evaluate(s).T_W_I.translation() - p).norm());
+    mean_offset_m += nearest;
+  }
+  mean_offset_m /= n;
+  CHECK(mean_offset_m > 0.15);
+  CHECK(mean_offset_m < 1.5);
+  // Deterministic per seed.
+  const Trajectory again2 = vilma::sim::GenerateRevisitTrajectory(world, reference, o, revisit, 33);
+  CHECK(again2.Evaluate(20.0).T_W_I.translation() == again.Evaluate(20.0).T_W_I.translation());
+}
+
+TEST_CASE("revisit options are validated", "[sim][trajectory]") {
+  vilma::sim::RevisitOptions r;
+  CHECK(r.Validate().empty());
+  r.correlation = 1.0;
+  CHECK(r.Validate().find("correlation") != std::string::npos);
+  r = {};
+  r.min_speed_ratio = 2.0;
+  r.max_speed_ratio = 1.0;
+  CHECK(r.Validate().find("speed_ratio") != std::string::npos);
+  const vilma::sim::World world = vilma::sim::MakePresetWorld("room", 1);
+  const Trajectory standing = vilma::sim::MakeStaticTrajectory(vilma::Transformation(), 10.0);
+  TrajectoryOptions o;
+  o.duration_s = 10.0;
+  CHECK_THROWS_AS(vilma::sim::GenerateRevisitTrajectory(world, standing, o, {}, 1),
+                  std::invalid_argument);
 }

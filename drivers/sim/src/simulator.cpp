@@ -31,6 +31,13 @@ std::string SimOptions::Validate() const {
   t.static_start_s = std::min(t.static_start_s, 0.5 * seconds);
   std::string e = t.Validate();
   if (!e.empty()) return "trajectory." + e;
+  if (revisit_seconds != 0.0) {
+    if (session == 0) return "revisit_seconds: expected 0 for session 0 (it is the reference)";
+    if (!(revisit_seconds > 0.5 && revisit_seconds <= 3600.0))
+      return "revisit_seconds: expected 0 (off) or 0.5 .. 3600";
+    e = revisit.Validate();
+    if (!e.empty()) return "revisit." + e;
+  }
   e = imu.Validate();
   if (!e.empty()) return "imu." + e;
   return "";
@@ -95,8 +102,21 @@ Simulator::Simulator(const SimOptions& options) : options_(options) {
   topt.duration_s = options.seconds;
   // Short sequences keep at most half of their length static.
   topt.static_start_s = std::min(topt.static_start_s, 0.5 * options.seconds);
-  trajectory_ = GenerateTrajectory(world_, topt, DeriveSeed(options.seed, 1000 + options.session),
-                                   &trajectory_report_);
+  if (options.revisit_seconds > 0.0) {
+    // Session 0's path exactly as `vilma-sim --session 0 --seconds revisit_seconds` draws it.
+    TrajectoryOptions reference_options = options.trajectory;
+    reference_options.duration_s = options.revisit_seconds;
+    reference_options.static_start_s =
+        std::min(reference_options.static_start_s, 0.5 * options.revisit_seconds);
+    const Trajectory reference =
+        GenerateTrajectory(world_, reference_options, DeriveSeed(options.seed, 1000));
+    trajectory_ = GenerateRevisitTrajectory(world_, reference, topt, options.revisit,
+                                            DeriveSeed(options.seed, 1000 + options.session),
+                                            &trajectory_report_);
+  } else {
+    trajectory_ = GenerateTrajectory(world_, topt, DeriveSeed(options.seed, 1000 + options.session),
+                                     &trajectory_report_);
+  }
   start_time_ns_ = options.start_time_ns + options.session * 86400LL * kNanosecondsPerSecond;
   Rng imu_rng(DeriveSeed(options.seed, 2000 + options.session));
   imu_ = SimulateImu(trajectory_, start_time_ns_, options.seconds, options.imu, &imu_rng);
@@ -180,6 +200,7 @@ DatasetSummary Simulator::WriteDataset(const std::string& out_dir, std::ostream*
        << "session: " << options_.session << "\n"
        << "seconds: " << options_.seconds << "\n"
        << "seed: " << options_.seed << "\n"
+       << "revisit_seconds: " << options_.revisit_seconds << "\n"
        << "stereo: " << (options_.stereo ? "true" : "false") << "\n"
        << "camera_time_offset_ns: " << options_.camera_time_offset_ns << "\n"
        << "motion_blur_samples: " << options_.motion_blur_samples << "\n"

@@ -270,30 +270,39 @@ Trajectory GenerateOnce(const World& world, const TrajectoryOptions& options, ui
 
 }  // namespace
 
-Trajectory GenerateTrajectory(const World& world, const TrajectoryOptions& options, uint64_t seed,
-                              TrajectoryReport* report) {
-  const std::string error = options.Validate();
-  if (!error.empty()) throw std::invalid_argument("TrajectoryOptions: " + error);
+namespace {
+
+// Checks a trajectory on samples every 50 ms: clearance, speed, rates, view depth.
+TrajectoryReport Check(const World& world, const Trajectory& traj) {
+  TrajectoryReport r;
+  r.min_view_depth = std::numeric_limits<double>::infinity();
+  double speed_sum = 0.0;
+  int count = 0;
+  for (double t = 0.0; t <= traj.duration_s(); t += 0.05, ++count) {
+    const TrajectoryState s = traj.Evaluate(t);
+    if (!world.IsFree(s.T_W_I.translation(), 0.5 * world.motion.clearance)) ++r.collision_samples;
+    r.max_speed = std::max(r.max_speed, s.v_W.norm());
+    speed_sum += s.v_W.norm();
+    r.max_angular_rate = std::max(r.max_angular_rate, s.omega_I.norm());
+    const Vector3d axis_W = s.T_W_I.rotation() * Vector3d::UnitZ();  // camera ~ body z
+    r.min_view_depth = std::min(r.min_view_depth, world.RayCast(s.T_W_I.translation(), axis_W));
+  }
+  r.mean_speed = speed_sum / std::max(1, count);
+  return r;
+}
+
+// Up to 20 attempts with derived seeds; the first without collision wins, else the one with
+// the fewest colliding samples.
+template <typename GenerateOnceFn>
+Trajectory GenerateBest(const World& world, uint64_t seed, TrajectoryReport* report,
+                        const GenerateOnceFn& generate_once) {
   Trajectory best;
   TrajectoryReport best_report;
   best_report.collision_samples = std::numeric_limits<int>::max();
   for (int attempt = 0; attempt < 20; ++attempt) {
-    Trajectory traj = GenerateOnce(world, options, DeriveSeed(seed, attempt));
-    TrajectoryReport r;
+    Trajectory traj = generate_once(DeriveSeed(seed, attempt));
+    TrajectoryReport r = Check(world, traj);
     r.attempts = attempt + 1;
-    r.min_view_depth = std::numeric_limits<double>::infinity();
-    double speed_sum = 0.0;
-    int count = 0;
-    for (double t = 0.0; t <= traj.duration_s(); t += 0.05, ++count) {
-      const TrajectoryState s = traj.Evaluate(t);
-      if (!world.IsFree(s.T_W_I.translation(), 0.5 * world.motion.clearance)) ++r.collision_samples;
-      r.max_speed = std::max(r.max_speed, s.v_W.norm());
-      speed_sum += s.v_W.norm();
-      r.max_angular_rate = std::max(r.max_angular_rate, s.omega_I.norm());
-      const Vector3d axis_W = s.T_W_I.rotation() * Vector3d::UnitZ();  // camera ~ body z
-      r.min_view_depth = std::min(r.min_view_depth, world.RayCast(s.T_W_I.translation(), axis_W));
-    }
-    r.mean_speed = speed_sum / std::max(1, count);
     if (r.collision_samples < best_report.collision_samples) {
       best = traj;
       best_report = r;
@@ -302,6 +311,131 @@ Trajectory GenerateTrajectory(const World& world, const TrajectoryOptions& optio
   }
   if (report) *report = best_report;
   return best;
+}
+
+// Control point at fractional index u (linear interpolation between neighbours).
+Vector3d Lerp(const std::vector<Vector3d>& points, double u) {
+  const int last = static_cast<int>(points.size()) - 1;
+  u = std::clamp(u, 0.0, static_cast<double>(last));
+  const int i = std::min(last - 1, static_cast<int>(std::floor(u)));
+  const double f = u - i;
+  Vector3d result = points[static_cast<std::size_t>(i)];
+  result += f * (points[static_cast<std::size_t>(i) + 1] - result);
+  return result;
+}
+
+Trajectory RevisitOnce(const World& world, const Trajectory& reference,
+                       const TrajectoryOptions& options, const RevisitOptions& revisit,
+                       uint64_t seed) {
+  Rng rng(seed);
+  const MotionHints& m = world.motion;
+  const double dt = options.knot_interval_s;
+  const std::vector<Vector3d>& ref_pos = reference.position_control_points();
+  const std::vector<Vector3d>& ref_ang = reference.angle_control_points();
+  // Knot spacing may differ from the reference's: walk in reference-index units scaled by the
+  // ratio of the intervals so that the reference's speed is kept.
+  const double index_per_knot = dt / reference.knot_interval_s();
+  // The reference's moving part: its static start repeats the first control point.
+  int first_moving = 0;
+  while (first_moving + 1 < static_cast<int>(ref_pos.size()) &&
+         (ref_pos[first_moving + 1] - ref_pos[0]).norm() < 1e-9 &&
+         (ref_ang[first_moving + 1] - ref_ang[0]).norm() < 1e-12) {
+    ++first_moving;
+  }
+  const double lo = first_moving, hi = static_cast<double>(ref_pos.size() - 1);
+  if (hi - lo < 1.0) {
+    throw std::invalid_argument("GenerateRevisitTrajectory: the reference does not move");
+  }
+  const int num_segments = static_cast<int>(std::ceil(options.duration_s / dt)) + 1;
+  const int n = num_segments + 3;
+  const int n_static = static_cast<int>(std::ceil(options.static_start_s / dt)) + 3;
+  const double a = revisit.correlation;
+  // Innovation std that gives the wanted stationary std: sigma^2 = s^2 / (1 - a^2).
+  const double innovation = std::sqrt(std::max(0.0, 1.0 - a * a));
+  double u = rng.Uniform(lo, hi);
+  double direction = rng.Uniform() < 0.5 ? 1.0 : -1.0;
+  Vector3d offset(rng.Normal(0.0, revisit.position_offset_m),
+                  rng.Normal(0.0, revisit.position_offset_m),
+                  rng.Normal(0.0, revisit.height_offset_m));
+  double yaw_offset = rng.Normal(0.0, revisit.yaw_offset_rad);
+  std::vector<Vector3d> pos(n), ang(n);
+  // Reference point plus offset, shrinking the offset until the point keeps clear.
+  auto place = [&](double index) {
+    Vector3d p_W = Lerp(ref_pos, index);
+    for (double shrink : {1.0, 0.5, 0.25}) {
+      if (world.IsFree(p_W + shrink * offset, m.clearance)) {
+        offset *= shrink;
+        p_W += offset;
+        return p_W;
+      }
+    }
+    offset.setZero();
+    return p_W;
+  };
+  Vector3d p = place(u);
+  double yaw = Lerp(ref_ang, u).x() + yaw_offset;
+  for (int i = 0; i < n_static && i < n; ++i) {
+    pos[i] = p;
+    ang[i] = Vector3d(yaw, m.mean_pitch, 0.0);
+  }
+  for (int i = n_static; i < n; ++i) {
+    const double ramp = std::min(1.0, (i - n_static + 1) / 3.0);
+    u += direction * ramp * index_per_knot *
+         rng.Uniform(revisit.min_speed_ratio, revisit.max_speed_ratio);
+    if (u > hi) {  // bounce at the reference's ends
+      u = 2.0 * hi - u;
+      direction = -1.0;
+    } else if (u < lo) {
+      u = 2.0 * lo - u;
+      direction = 1.0;
+    }
+    offset = a * offset + innovation * Vector3d(rng.Normal(0.0, revisit.position_offset_m),
+                                                rng.Normal(0.0, revisit.position_offset_m),
+                                                rng.Normal(0.0, revisit.height_offset_m));
+    yaw_offset = a * yaw_offset + innovation * rng.Normal(0.0, revisit.yaw_offset_rad);
+    p = place(u);
+    yaw = Lerp(ref_ang, u).x() + yaw_offset * ramp;
+    const double pitch = m.mean_pitch + m.roll_pitch_amplitude * rng.Uniform(-1.0, 1.0) * ramp;
+    const double roll = m.roll_pitch_amplitude * rng.Uniform(-1.0, 1.0) * ramp;
+    pos[i] = p;
+    ang[i] = Vector3d(yaw, pitch, roll);
+  }
+  return Trajectory(dt, pos, ang);
+}
+
+}  // namespace
+
+std::string RevisitOptions::Validate() const {
+  if (!(position_offset_m >= 0.0 && position_offset_m <= 10.0))
+    return "position_offset_m: expected 0 .. 10 m";
+  if (!(height_offset_m >= 0.0 && height_offset_m <= 10.0))
+    return "height_offset_m: expected 0 .. 10 m";
+  if (!(yaw_offset_rad >= 0.0 && yaw_offset_rad <= M_PI)) return "yaw_offset_rad: expected 0 .. pi";
+  if (!(correlation >= 0.0 && correlation < 1.0)) return "correlation: expected 0 .. < 1";
+  if (!(min_speed_ratio > 0.0 && min_speed_ratio <= max_speed_ratio && max_speed_ratio <= 5.0))
+    return "min_speed_ratio / max_speed_ratio: expected 0 < min <= max <= 5";
+  return "";
+}
+
+Trajectory GenerateTrajectory(const World& world, const TrajectoryOptions& options, uint64_t seed,
+                              TrajectoryReport* report) {
+  const std::string error = options.Validate();
+  if (!error.empty()) throw std::invalid_argument("TrajectoryOptions: " + error);
+  return GenerateBest(world, seed, report,
+                      [&](uint64_t s) { return GenerateOnce(world, options, s); });
+}
+
+Trajectory GenerateRevisitTrajectory(const World& world, const Trajectory& reference,
+                                     const TrajectoryOptions& options,
+                                     const RevisitOptions& revisit, uint64_t seed,
+                                     TrajectoryReport* report) {
+  std::string error = options.Validate();
+  if (!error.empty()) throw std::invalid_argument("TrajectoryOptions: " + error);
+  error = revisit.Validate();
+  if (!error.empty()) throw std::invalid_argument("RevisitOptions: " + error);
+  return GenerateBest(world, seed, report, [&](uint64_t s) {
+    return RevisitOnce(world, reference, options, revisit, s);
+  });
 }
 
 }  // namespace sim

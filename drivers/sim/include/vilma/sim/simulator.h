@@ -34,6 +34,11 @@ struct SimOptions {
   bool session_lighting = true;  // sessions > 0 get another brightness/contrast
   double render_focal_scale = 0.85;  // see RenderOptions
   TrajectoryOptions trajectory;  // duration_s is set from `seconds`
+  // Sessions > 0 only. 0: the session draws its own path through the world. > 0: it revisits
+  // session 0's path, as session 0 is generated with this length [s] (give session 0's
+  // --seconds), with the offsets of `revisit` (GenerateRevisitTrajectory).
+  double revisit_seconds = 0.0;
+  RevisitOptions revisit;
   ImuSimOptions imu;
   // Time of the first sample [ns]; EuRoC-like epoch stamps. Session k starts k days later.
   int64_t start_time_ns = 1600000000000000000;

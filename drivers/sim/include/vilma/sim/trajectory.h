@@ -81,5 +81,30 @@ struct TrajectoryReport {
 Trajectory GenerateTrajectory(const World& world, const TrajectoryOptions& options, uint64_t seed,
                               TrajectoryReport* report = nullptr);
 
+// Options of a path that revisits another one (later sessions of a multi-session dataset: the
+// robot comes back to where the mapping session went and looks at what it saw, the way EuRoC's
+// MH_02 repeats MH_01). All offsets are smooth AR(1) processes per knot, x_k+1 = a x_k + n.
+struct RevisitOptions {
+  double position_offset_m = 0.6;    // stationary std of the horizontal offset [m]
+  double height_offset_m = 0.25;     // stationary std of the vertical offset [m]
+  double yaw_offset_rad = 0.25;      // stationary std of the yaw offset [rad]
+  double correlation = 0.85;         // AR(1) coefficient a per knot (0 .. 1)
+  double min_speed_ratio = 0.7;      // speed relative to the reference, drawn per knot
+  double max_speed_ratio = 1.3;
+
+  std::string Validate() const;
+};
+
+// A trajectory of options.duration_s that follows `reference` (another session's trajectory in
+// the same world): it starts at a random point of the reference's moving part, walks along the
+// reference's control points forwards or backwards (bouncing at its ends) at a randomly varying
+// speed, with smooth position and yaw offsets that keep clear of the world's geometry. The
+// reference's yaw is kept, so the camera looks at what the reference looked at from nearby.
+// Deterministic from `seed`; retries like GenerateTrajectory.
+Trajectory GenerateRevisitTrajectory(const World& world, const Trajectory& reference,
+                                     const TrajectoryOptions& options,
+                                     const RevisitOptions& revisit, uint64_t seed,
+                                     TrajectoryReport* report = nullptr);
+
 }  // namespace sim
 }  // namespace vilma
