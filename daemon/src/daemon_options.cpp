@@ -34,6 +34,7 @@ std::string ChannelOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(CheckChannel("channels.odometry", odometry, false));
   VILMA_RETURN_IF_ERROR(CheckChannel("channels.pose", pose, false));
   VILMA_RETURN_IF_ERROR(CheckChannel("channels.status", status, false));
+  VILMA_RETURN_IF_ERROR(CheckChannel("channels.localization", localization, false));
   return "";
 }
 
@@ -82,6 +83,16 @@ std::string MappingOptions::Validate() const {
   return "";
 }
 
+localizer::KeyframeFeatureOptions DefaultLocalizationFeatureOptions() {
+  localizer::KeyframeFeatureOptions f = mapping::MapBuilderOptions().features;
+  // Scales 1, 1.2, 1.44 (BRISK's own tolerance covers the steps in between and beyond):
+  // 4 levels matched as well but their coarse, less precise keypoints gave more inliers at
+  // the same error, so that the min_inliers gate let 5-10 cm results through (docs/daemon.md).
+  f.detector.num_levels = 3;
+  f.descriptor.scale_with_level = true;  // BRISK pattern follows the level: scale invariant
+  return f;
+}
+
 std::string LocalizationOptions::Validate() const {
   if (enabled && map.empty()) {
     return "localization.map: expected a localization map file or VI-map folder (or --localization-map)";
@@ -104,6 +115,8 @@ std::string LocalizationOptions::Validate() const {
     return "localization.forgetting_factor: expected 0 < f <= 1";
   }
   if (max_consecutive_gated < 1) return "localization.max_consecutive_gated: expected >= 1";
+  const std::string features_error = features.Validate();
+  if (!features_error.empty()) return "localization.features." + features_error;
   return "";
 }
 
@@ -161,6 +174,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.channels.odometry = channels.Get<std::string>("odometry");
   o.channels.pose = channels.Get<std::string>("pose");
   o.channels.status = channels.Get<std::string>("status");
+  o.channels.localization = channels.Get<std::string>("localization");
   channels.CheckNoUnknownKeys();
 
   const YamlNode queues = root.Child("queues");
@@ -223,6 +237,16 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.localization.enabled = loc.Get<bool>("enabled");
   o.localization.map = Resolve(root.file(), loc.Get<std::string>("map"));
   o.localization.localizer_file = Resolve(root.file(), loc.Get<std::string>("localizer"));
+  // features: a file name ("" = the built-in query profile) or the options inline.
+  const YAML::Node features = loc.raw()["features"];
+  if (features.IsDefined() && features.IsMap()) {
+    o.localization.features = localizer::ReadKeyframeFeatureOptions(loc.Child("features"));
+  } else {
+    o.localization.features_file = Resolve(root.file(), loc.Get<std::string>("features"));
+    if (!o.localization.features_file.empty()) {
+      o.localization.features = localizer::LoadKeyframeFeatureOptions(o.localization.features_file);
+    }
+  }
   o.localization.max_rate_hz = loc.Get<double>("max_rate_hz");
   o.localization.min_inliers = loc.Get<int>("min_inliers");
   o.localization.max_jump_m = loc.Get<double>("max_jump_m");
@@ -279,6 +303,7 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "  odometry: " << o.channels.odometry << "\n"
       << "  pose: " << o.channels.pose << "\n"
       << "  status: " << o.channels.status << "\n"
+      << "  localization: " << o.channels.localization << "\n"
       << "queues:\n"
       << "  input_capacity: " << o.queues.input_capacity << "\n"
       << "  filter_capacity: " << o.queues.filter_capacity << "\n"
@@ -325,6 +350,10 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "  min_consistent_results: " << o.localization.min_consistent_results << "\n"
       << "  forgetting_factor: " << o.localization.forgetting_factor << "\n"
       << "  max_consecutive_gated: " << o.localization.max_consecutive_gated << "\n"
+      << "  # query keyframe features"
+      << (o.localization.features_file.empty() ? " (built-in profile)" : " from " + o.localization.features_file) << "\n"
+      << "  features:\n"
+      << Indent(localizer::KeyframeFeatureOptionsToYaml(o.localization.features), "    ")
       << "# estimator options" << (o.estimator_file.empty() ? " (built-in defaults)" : " from " + o.estimator_file) << "\n"
       << "estimator:\n"
       << Indent(estimator::FilterOptionsToYaml(o.estimator), "  ");

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include <vilma/localization_t.hpp>
 #include <vilma/pose_t.hpp>
 #include <vilma/status_t.hpp>
 
@@ -158,6 +159,8 @@ enum Counter : int {
   kLocPosesPublished,
   kLocStageUsP50,       // localizer stage time per query (extract + Localize) [us]
   kLocStageUsMax,
+  kLocMessagesPublished,  // VILMA_LOC messages (one per attempt)
+  kLocMessagesDropped,    // live: the publisher queue was full
   kNumCounters
 };
 
@@ -233,14 +236,16 @@ constexpr std::array<const char*, kNumCounters> kCounterNames = {
     "loc_poses_published",
     "loc_stage_us_p50",
     "loc_stage_us_max",
+    "loc_messages_published",
+    "loc_messages_dropped",
 };
 
 // Counters that are drops (summed into "drops").
-constexpr std::array<Counter, 10> kDropCounters = {
+constexpr std::array<Counter, 11> kDropCounters = {
     kImagesDroppedPool,     kImagesDroppedInputQueue, kImuDroppedInputQueue,
     kImuDroppedFilterQueue, kFramesDroppedBusy,       kFramesDroppedFilterQueue,
     kPosesDroppedOutput,    kSyncFramesDroppedOverflow, kMapFramesDropped,
-    kMapImuDropped};
+    kMapImuDropped,         kLocMessagesDropped};
 
 // Cameras whose images the map-builder stage can carry per frame (fixed: no allocation).
 constexpr int kMaxMapCameras = 4;
@@ -295,9 +300,52 @@ struct LocResultItem {
   Transformation T_G_I;
   Matrix6d covariance_I = Matrix6d::Zero();
   int inliers = 0;
+  int num_keypoints = 0;
+  int num_matches = 0;    // after the covisibility filter (RANSAC input)
+  double stage_ms = 0.0;  // extraction + Localize, wall time [ms]
+};
+
+// What the filter thread did with a localization result (localization_t.decision).
+enum class LocDecision : uint8_t {
+  kAccepted,         // into the T_G_M estimate (also a re-initialization)
+  kRejectedInliers,  // fewer than localization.min_inliers
+  kRejectedGravity,  // T_G_M not a yaw rotation
+  kRejectedJump,     // gated against the estimate
+  kRejectedStale,    // for a previous M frame
+  kFailed            // the library found no pose
+};
+
+const char* LocDecisionName(LocDecision d) {
+  switch (d) {
+    case LocDecision::kAccepted: return "accepted";
+    case LocDecision::kRejectedInliers: return "rejected_inliers";
+    case LocDecision::kRejectedGravity: return "rejected_gravity";
+    case LocDecision::kRejectedJump: return "rejected_jump";
+    case LocDecision::kRejectedStale: return "rejected_stale";
+    case LocDecision::kFailed: return "failed";
+  }
+  return "failed";
+}
+
+// One localization attempt for VILMA_LOC (filter -> publisher, inside OutputItem).
+struct LocRecord {
+  int64_t t_ns = 0;  // query frame, IMU clock [ns]
+  localizer::LocalizationStatus status = localizer::LocalizationStatus::kNoKeypoints;
+  LocDecision decision = LocDecision::kFailed;
+  int32_t num_keypoints = 0;
+  int32_t num_matches = 0;
+  int32_t num_inliers = 0;
+  double position[3] = {0, 0, 0};        // p_G_I [m]
+  double orientation[4] = {1, 0, 0, 0};  // q_G_I (w, x, y, z)
+  double covariance[36] = {};            // (position, rotation), global left, as pose_t
+  double stage_ms = 0.0;
 };
 
 struct OutputItem {
+  // kFrame: a filtered frame (VILMA_ODOM, VILMA_POSE); kLoc: a localization attempt
+  // (VILMA_LOC, `loc` only). One queue keeps the filter thread's order on the wire.
+  enum class Kind : uint8_t { kFrame, kLoc };
+  Kind kind = Kind::kFrame;
   int64_t t_ns = 0;  // state time, IMU clock [ns]
   int32_t status = pose_t::INVALID;
   double position[3] = {0, 0, 0};
@@ -317,6 +365,7 @@ struct OutputItem {
   double g_orientation[4] = {1, 0, 0, 0};
   double g_velocity[3] = {0, 0, 0};
   double g_covariance[36] = {};
+  LocRecord loc;  // kind kLoc
 };
 
 template <typename T>
@@ -381,7 +430,7 @@ struct EstimatorDaemon::Impl {
   std::atomic<int> loc_in_flight{0};
   Wakeup loc_wake;
   std::string loc_report;
-  std::string pose_channel;
+  std::string pose_channel, loc_channel;
 
   // ---- input stage (input thread only) ----
   std::unique_ptr<lcm::LCM> input_lcm;   // live mode
@@ -494,6 +543,7 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   odom_channel = ChannelName(options.channels.odometry, options.channel_suffix);
   status_channel = ChannelName(options.channels.status, options.channel_suffix);
   pose_channel = ChannelName(options.channels.pose, options.channel_suffix);
+  loc_channel = ChannelName(options.channels.localization, options.channel_suffix);
   for (auto& c : counters) c.store(0);
   for (auto& t : last_log_ns) t.store(0);
 
@@ -546,15 +596,19 @@ void EstimatorDaemon::Impl::SetUpLocalization() {
                                                ? localizer::LocalizerOptions()
                                                : localizer::LoadLocalizerOptions(lo.localizer_file);
   loc = std::make_unique<localizer::Localizer>(map, lopt);
-  // The features of the map builder (the maps are built with them).
-  loc_extractor = std::make_unique<localizer::FeatureExtractor>(options.mapping.map_builder.features);
+  // The query profile (localization.features): by default the map builder's features with a
+  // scale pyramid, so that the query matches the map across distances.
+  loc_extractor = std::make_unique<localizer::FeatureExtractor>(lo.features);
   loc_queue = std::make_unique<Spsc<LocItem>>(4);
   loc_result_queue = std::make_unique<Spsc<LocResultItem>>(4);
   std::ostringstream r;
   r << "localization map " << lo.map << ": " << map->num_landmarks() << " landmarks, "
     << map->num_descriptors() << " descriptors, loaded and indexed in "
     << static_cast<int>(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count())
-    << " ms";
+    << " ms; query features "
+    << (lo.features_file.empty() ? std::string("built-in profile") : lo.features_file) << " ("
+    << lo.features.detector.num_levels << " levels, " << lo.features.detector.max_keypoints
+    << " keypoints at most)";
   loc_report = r.str();
   std::fprintf(stderr, "vilma-estimatord: %s\n", loc_report.c_str());
 }
@@ -581,6 +635,7 @@ void EstimatorDaemon::Impl::LocLoop() {
       out.t_ns = item.t_ns;
       out.epoch = item.epoch;
       out.T_M_I = item.T_M_I;
+      out.num_keypoints = static_cast<int>(uv.size());
       if (uv.empty()) {
         out.status = localizer::LocalizationStatus::kNoKeypoints;
       } else {
@@ -590,8 +645,10 @@ void EstimatorDaemon::Impl::LocLoop() {
         out.T_G_I = r.T_G_I;
         out.covariance_I = r.covariance_I;
         out.inliers = static_cast<int>(r.inliers.size());
+        out.num_matches = static_cast<int>(r.matches.size());
       }
       const double ms = static_cast<double>(SteadyNs() - t0) * 1e-6;
+      out.stage_ms = ms;
       stage_ms.Add(ms);
       max_us = std::max(max_us, ms * 1e3);
       counters[kLocStageUsP50].store(static_cast<int64_t>(stage_ms.Percentile(0.5) * 1e3),
@@ -1008,30 +1065,80 @@ void EstimatorDaemon::Impl::FilterLoop() {
     global_frame.Reset();
     counters[kLocInitialized].store(0, std::memory_order_relaxed);
   };
-  auto apply_result = [&](const LocResultItem& res) {
+  auto decide = [&](const LocResultItem& res) {
     using localizer::LocalizationStatus;
     static_assert(static_cast<int>(LocalizationStatus::kNumStatuses) == 6, "status counters");
     Count(static_cast<Counter>(kLocOk + static_cast<int>(res.status)));
-    if (res.status != LocalizationStatus::kOk) return;
+    if (res.status != LocalizationStatus::kOk) return LocDecision::kFailed;
     if (res.epoch != epoch) {
       Count(kLocRejectedStale);
-      return;
+      return LocDecision::kRejectedStale;
     }
     if (res.inliers < options.localization.min_inliers) {
       Count(kLocRejectedInliers);
-      return;
+      return LocDecision::kRejectedInliers;
     }
+    LocDecision d = LocDecision::kAccepted;
     switch (global_frame.Update(res.T_G_I, res.covariance_I, res.T_M_I)) {
       case GlobalFrameUpdate::kAccepted: Count(kLocTgmUpdates); break;
-      case GlobalFrameUpdate::kRejectedGravity: Count(kLocRejectedGravity); break;
-      case GlobalFrameUpdate::kRejectedJump: Count(kLocRejectedJump); break;
-      case GlobalFrameUpdate::kReinitialized:
+      case GlobalFrameUpdate::kRejectedGravity:
+        Count(kLocRejectedGravity);
+        d = LocDecision::kRejectedGravity;
+        break;
+      case GlobalFrameUpdate::kRejectedJump:
         Count(kLocRejectedJump);
+        d = LocDecision::kRejectedJump;
+        break;
+      case GlobalFrameUpdate::kReinitialized:
+        // Gated, but the gated results in a row outvoted the estimate: it restarts from this
+        // one, which is thus accepted (loc_rejected_jump counts only results left unused).
         Count(kLocTgmResets);
         Count(kLocTgmUpdates);
         break;
     }
     counters[kLocInitialized].store(global_frame.initialized() ? 1 : 0, std::memory_order_relaxed);
+    return d;
+  };
+  // Every result, used or not, goes out on VILMA_LOC through the publisher queue (no LCM here,
+  // no allocation: the record is plain data).
+  OutputItem loc_out;
+  loc_out.kind = OutputItem::Kind::kLoc;
+  auto apply_result = [&](const LocResultItem& res) {
+    LocRecord& rec = loc_out.loc;
+    rec = LocRecord();
+    rec.decision = decide(res);
+    rec.t_ns = res.t_ns;
+    rec.status = res.status;
+    rec.num_keypoints = res.num_keypoints;
+    rec.num_matches = res.num_matches;
+    rec.num_inliers = res.inliers;
+    rec.stage_ms = res.stage_ms;
+    if (res.status == localizer::LocalizationStatus::kOk) {
+      const Eigen::Vector3d& p = res.T_G_I.translation();
+      const Eigen::Quaterniond& q = res.T_G_I.rotation();
+      for (int i = 0; i < 3; ++i) rec.position[i] = p[i];
+      rec.orientation[0] = q.w();
+      rec.orientation[1] = q.x();
+      rec.orientation[2] = q.y();
+      rec.orientation[3] = q.z();
+      // The localizer's covariance is of xi = [rho; phi] in T_G_I Exp(xi) (body, right). To
+      // first order p = p_G_I + R rho and R_G_I Exp(phi) = Exp(R phi) R_G_I, so pose_t's
+      // global (left) errors are (R rho, R phi): Cov = A C A^T with A = diag(R_G_I, R_G_I).
+      Matrix6d A = Matrix6d::Zero();
+      const Eigen::Matrix3d R_G_I = q.toRotationMatrix();
+      A.block<3, 3>(0, 0) = R_G_I;
+      A.block<3, 3>(3, 3) = R_G_I;
+      const Matrix6d C = A * res.covariance_I * A.transpose();
+      for (int i = 0; i < 6; ++i) {
+        for (int j = 0; j < 6; ++j) rec.covariance[6 * i + j] = C(i, j);
+      }
+    }
+    const bool pushed = log_mode ? PushBlocking(output_queue, loc_out) : output_queue.push(loc_out);
+    if (!pushed) {
+      Count(kLocMessagesDropped);
+    } else {
+      output_wake.Notify();
+    }
   };
   LocResultItem loc_result;
   FilterItem item;
@@ -1260,6 +1367,16 @@ void EstimatorDaemon::Impl::FilterLoop() {
       notifier.PetWatchdog(SteadyNs());
       filter_wake.Wait(50 * kMs);
     }
+  }
+  if (localization_enabled) {
+    // Live: a query may still be in the localizer. Its result is reported too (every attempt
+    // gets its VILMA_LOC); bounded, the localizer runs at most one query (tens of ms).
+    const int64_t deadline = SteadyNs() + 5 * 1000 * kMs;
+    while (loc_in_flight.load() > 0 && !stop.load() && SteadyNs() < deadline) {
+      notifier.PetWatchdog(SteadyNs());
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    while (loc_result_queue->pop(loc_result)) apply_result(loc_result);
   }
   filter_done.store(true);
   output_wake.Notify();
@@ -1505,6 +1622,8 @@ void EstimatorDaemon::Impl::PublishLoop() {
   gmsg.parent_frame = "G";
   gmsg.child_frame = "I";
   int64_t gseq = 0;
+  localization_t lmsg;  // VILMA_LOC (LOC mode)
+  int64_t lseq = 0;
   const int64_t period_ns = SecondsToNs(options.status_period_s);
   int64_t next_status_ns = SteadyNs();
   OutputItem out;
@@ -1514,6 +1633,23 @@ void EstimatorDaemon::Impl::PublishLoop() {
     if (depth > output_depth_max.load()) output_depth_max.store(depth);
     while (output_queue.pop(out)) {
       any = true;
+      if (out.kind == OutputItem::Kind::kLoc) {
+        const LocRecord& rec = out.loc;
+        lmsg.utime = NsToUtime(rec.t_ns);
+        lmsg.seq = lseq++;
+        lmsg.status = localizer::LocalizationStatusName(rec.status);
+        lmsg.decision = LocDecisionName(rec.decision);
+        lmsg.num_keypoints = rec.num_keypoints;
+        lmsg.num_matches = rec.num_matches;
+        lmsg.num_inliers = rec.num_inliers;
+        std::copy(rec.position, rec.position + 3, lmsg.position);
+        std::copy(rec.orientation, rec.orientation + 4, lmsg.orientation);
+        std::copy(rec.covariance, rec.covariance + 36, lmsg.covariance);
+        lmsg.stage_ms = rec.stage_ms;
+        publish_lcm->publish(loc_channel, &lmsg);
+        Count(kLocMessagesPublished);
+        continue;
+      }
       msg.utime = NsToUtime(out.t_ns);
       msg.seq = seq++;
       std::copy(out.position, out.position + 3, msg.position);

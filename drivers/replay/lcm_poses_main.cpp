@@ -1,6 +1,8 @@
 // vilma-lcm-poses: writes the vilma.pose_t messages of one channel of an LCM log as a TUM
 // trajectory (e.g. VILMA_POSE or VILMA_ODOM recorded by lcm-logger or written by
-// vilma-estimatord --lcm-url file://...?mode=w), for `vilma eval`.
+// vilma-estimatord --lcm-url file://...?mode=w), for `vilma eval`. A channel of
+// vilma.localization_t (VILMA_LOC, told apart by the LCM fingerprint) gives the localization
+// attempts that found a pose, and a summary line for recall.
 #include <iostream>
 #include <string>
 
@@ -14,14 +16,23 @@ const char kUsage[] = R"(Usage: vilma-lcm-poses LOG --out TRAJ.txt [--channel NA
 Writes the vilma.pose_t messages of one channel of an LCM log file as TUM text
 (t [s] x y z qx qy qz qw), in log order, for `vilma eval` or other trajectory tools.
 
+If the channel carries vilma.localization_t instead (vilma-estimatord's VILMA_LOC, one
+message per localization attempt; the type is recognized by its LCM fingerprint), the
+attempts with a pose (status "ok": T_G_I at the query frame) are written, whether the
+daemon accepted them or not, and stdout gets one summary line:
+  attempts 30, with pose 28, accepted 15
+so that recall = (poses within a tolerance of ground truth) / attempts. No pose at all
+is then a valid outcome (an empty file, exit 0).
+
 Options:
   --out FILE       output trajectory (TUM)
-  --channel NAME   channel to read (default VILMA_POSE)
-  --all            also keep poses whose status is INVALID or INITIALIZING
+  --channel NAME   channel to read (default VILMA_POSE; VILMA_LOC for the attempts)
+  --all            pose_t: also keep poses whose status is INVALID or INITIALIZING
+                   (no effect on localization_t)
   --help           this text
 
-Exit status: 0 on success, 1 on a bad or unreadable log (or no pose on the channel),
-2 on bad options.
+Exit status: 0 on success, 1 on a bad or unreadable log (or no pose_t pose / no
+localization_t message on the channel, or another type), 2 on bad options.
 )";
 
 }  // namespace
@@ -50,6 +61,22 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    const vilma::PoseLogType type = vilma::DetectPoseLogType(log_path, channel);
+    if (type == vilma::PoseLogType::kOther) {
+      std::cerr << "vilma-lcm-poses: " << log_path << ": channel " << channel
+                << " carries neither vilma.pose_t nor vilma.localization_t\n";
+      return 1;
+    }
+    if (type == vilma::PoseLogType::kLocalization) {
+      vilma::LocalizationLogStats stats;
+      const vilma::Trajectory trajectory = vilma::ReadLocalizationLog(log_path, channel, &stats);
+      vilma::WriteTrajectoryFile(out_path, trajectory, vilma::TrajectoryFormat::kTum);
+      std::cout << "attempts " << stats.attempts << ", with pose " << stats.with_pose
+                << ", accepted " << stats.accepted << "\n";
+      std::cerr << "vilma-lcm-poses: " << trajectory.size() << " localization poses from " << channel
+                << " (" << stats.malformed << " malformed skipped) -> " << out_path << "\n";
+      return 0;
+    }
     vilma::PoseLogStats stats;
     const vilma::Trajectory trajectory = vilma::ReadPoseLog(log_path, channel, all, &stats);
     if (trajectory.empty()) {

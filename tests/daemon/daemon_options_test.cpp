@@ -167,3 +167,64 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
 
 }  // namespace
 }  // namespace vilma::daemon
+
+namespace vilma::daemon {
+namespace {
+
+TEST_CASE("localization query features: built-in profile, file, inline; config file equals the default",
+          "[daemon][localization]") {
+  // The built-in profile: the map builder's features with a scale pyramid for the query.
+  const localizer::KeyframeFeatureOptions def = DefaultLocalizationFeatureOptions();
+  CHECK(def.detector.num_levels == 3);
+  CHECK(def.descriptor.scale_with_level);
+  localizer::KeyframeFeatureOptions expected = mapping::MapBuilderOptions().features;
+  expected.detector.num_levels = 3;
+  expected.descriptor.scale_with_level = true;
+  CHECK(localizer::KeyframeFeatureOptionsToYaml(def) == localizer::KeyframeFeatureOptionsToYaml(expected));
+  CHECK(localizer::KeyframeFeatureOptionsToYaml(LocalizationOptions().features) ==
+        localizer::KeyframeFeatureOptionsToYaml(def));
+  // config/localization_features.yaml holds it.
+  const std::string file = std::string(VILMA_SOURCE_DIR) + "/config/localization_features.yaml";
+  CHECK(localizer::KeyframeFeatureOptionsToYaml(localizer::LoadKeyframeFeatureOptions(file)) ==
+        localizer::KeyframeFeatureOptionsToYaml(def));
+
+  const std::string good = DefaultConfigText();
+  CHECK(ParseDaemonOptions(good, "daemon.yaml").localization.features_file.empty());
+  // A file (relative to the daemon config) ...
+  const DaemonOptions from_file = ParseDaemonOptions(
+      Replace(good, "features: \"\"", "features: " + file), "daemon.yaml");
+  CHECK(from_file.localization.features_file == file);
+  CHECK(from_file.localization.features.detector.num_levels == 3);
+  CHECK_THAT(ErrorOf(Replace(good, "features: \"\"", "features: no-such-features.yaml")),
+             Catch::Contains("no-such-features.yaml"));
+  // ... or inline, strict (every key; a bad value names the field).
+  DaemonOptions o;
+  o.localization.features.detector.num_levels = 2;
+  o.localization.features.detector.max_keypoints = 900;
+  const std::string effective = DaemonOptionsToYaml(o);
+  const DaemonOptions back = ParseDaemonOptions(effective, "effective.yaml");
+  CHECK(DaemonOptionsToYaml(back) == effective);
+  CHECK(back.localization.features.detector.num_levels == 2);
+  CHECK(back.localization.features.detector.max_keypoints == 900);
+  CHECK_THAT(ErrorOf(Replace(effective, "max_keypoints: 900", "max_keypoints: -1")),
+             Catch::Contains("max_keypoints"));
+  CHECK_THAT(ErrorOf(Replace(effective, "max_keypoints: 900", "")), Catch::Contains("max_keypoints"));
+}
+
+TEST_CASE("the VILMA_LOC channel is configurable and validated", "[daemon][localization]") {
+  const std::string good = DefaultConfigText();
+  CHECK(ParseDaemonOptions(good, "daemon.yaml").channels.localization == "VILMA_LOC");
+  CHECK(DaemonOptions().channels.localization == "VILMA_LOC");
+  CHECK_THAT(ErrorOf(Replace(good, "localization: VILMA_LOC", "localization: vilma.loc")),
+             Catch::Contains("channels.localization"));
+  CHECK_THAT(ErrorOf(Replace(good, "localization: VILMA_LOC", "localization: \"\"")),
+             Catch::Contains("channels.localization"));
+  CHECK_THAT(ErrorOf(Replace(good, "  localization: VILMA_LOC", "")),
+             Catch::Contains("localization"));
+  DaemonOptions o;
+  o.channels.localization = "LOC2";
+  CHECK(ParseDaemonOptions(DaemonOptionsToYaml(o), "effective.yaml").channels.localization == "LOC2");
+}
+
+}  // namespace
+}  // namespace vilma::daemon

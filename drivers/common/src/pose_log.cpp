@@ -1,6 +1,7 @@
 #include "vilma/drivers/pose_log.h"
 
 #include <cmath>
+#include <vilma/localization_t.hpp>
 #include <vilma/pose_t.hpp>
 
 #include "vilma/core/time.h"
@@ -36,6 +37,55 @@ Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
       ++s.not_valid;
       continue;
     }
+    trajectory.Add(UtimeToNs(msg.utime), Transformation(q, p));
+  }
+  return trajectory;
+}
+
+PoseLogType DetectPoseLogType(const std::string& path, const std::string& channel) {
+  LcmLogReader reader(path);
+  LcmLogEvent event;
+  bool seen = false;
+  while (reader.Next(&event)) {
+    if (event.channel != channel) continue;
+    seen = true;
+    // decode() checks the fingerprint (the type's hash in the first 8 bytes) first.
+    const int size = static_cast<int>(event.data.size());
+    pose_t pose;
+    if (pose.decode(event.data.data(), 0, size) >= 0) return PoseLogType::kPose;
+    localization_t loc;
+    if (loc.decode(event.data.data(), 0, size) >= 0) return PoseLogType::kLocalization;
+  }
+  return seen ? PoseLogType::kOther : PoseLogType::kEmpty;
+}
+
+Trajectory ReadLocalizationLog(const std::string& path, const std::string& channel,
+                               LocalizationLogStats* stats) {
+  LocalizationLogStats local;
+  LocalizationLogStats& s = stats != nullptr ? *stats : local;
+  s = LocalizationLogStats();
+  Trajectory trajectory;
+  LcmLogReader reader(path);
+  LcmLogEvent event;
+  while (reader.Next(&event)) {
+    if (event.channel != channel) continue;
+    ++s.events_on_channel;
+    localization_t msg;
+    if (msg.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) {
+      ++s.malformed;
+      continue;
+    }
+    ++s.attempts;
+    if (msg.decision == "accepted") ++s.accepted;
+    if (msg.status != "ok") continue;
+    const Eigen::Vector3d p(msg.position[0], msg.position[1], msg.position[2]);
+    const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
+                               msg.orientation[3]);
+    if (!p.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3) {
+      ++s.malformed;
+      continue;
+    }
+    ++s.with_pose;
     trajectory.Add(UtimeToNs(msg.utime), Transformation(q, p));
   }
   return trajectory;

@@ -10,6 +10,7 @@
 #include "vilma/core/sensor_sync.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/estimator/filter_options.h"
+#include "vilma/localizer/feature_options.h"
 #include "vilma/mapping/map_builder_options.h"
 
 namespace vilma::daemon {
@@ -22,6 +23,7 @@ struct ChannelOptions {
   std::string imu = "IMU";
   std::string odometry = "VILMA_ODOM";  // pose_t T_M_I, every frame
   std::string pose = "VILMA_POSE";      // pose_t T_G_I (LOC mode, once T_G_M is known)
+  std::string localization = "VILMA_LOC";  // localization_t, every LOC-mode attempt
   std::string status = "VILMA_STATUS";  // status_t
   std::string Validate() const;
 };
@@ -84,6 +86,14 @@ struct MappingOptions {
   std::string Validate() const;
 };
 
+// The built-in keyframe-feature profile of localization queries (config/localization_features.yaml):
+// the map builder's feature defaults with a 3-level ORB pyramid and BRISK sizes scaled with the
+// level. The query often sees the map's texture from another distance than the mapping run
+// (docs/benchmarks.md "Localization in the daemon": 1.9x in the simulated room), where
+// single-level fixed-size descriptors stop matching; the map itself keeps the single-level
+// features that frame-to-frame tracking wants.
+localizer::KeyframeFeatureOptions DefaultLocalizationFeatureOptions();
+
 // LOC mode (docs/daemon.md "Localization"): a localizer stage against a prior map; the filter
 // thread estimates T_G_M from its results and publishes VILMA_POSE (T_G_I).
 struct LocalizationOptions {
@@ -94,6 +104,11 @@ struct LocalizationOptions {
   // Localizer options: a file like config/localizer.yaml (relative to the daemon config), or
   // "" for the built-in defaults.
   std::string localizer_file;
+  // Keyframe features of the query images: a file like config/localization_features.yaml
+  // (relative to the daemon config), "" for DefaultLocalizationFeatureOptions(), or the options
+  // inline as a map.
+  std::string features_file;
+  localizer::KeyframeFeatureOptions features = DefaultLocalizationFeatureOptions();
   double max_rate_hz = 2.0;  // localization queries at most this often [Hz]
   int min_inliers = 30;      // results with fewer RANSAC inliers are not used (loc_rejected_inliers)
   // Gating of T_G_M measurements against the current estimate (after initialization).

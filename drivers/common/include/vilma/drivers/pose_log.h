@@ -21,4 +21,22 @@ struct PoseLogStats {
 Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
                        bool include_not_valid, PoseLogStats* stats);
 
+// What one channel of a log carries, by the LCM fingerprint of its first decodable message.
+enum class PoseLogType { kEmpty, kPose, kLocalization, kOther };
+PoseLogType DetectPoseLogType(const std::string& path, const std::string& channel);
+
+struct LocalizationLogStats {
+  int64_t events_on_channel = 0;
+  int64_t malformed = 0;  // did not decode as localization_t, or non-finite pose: skipped
+  int64_t attempts = 0;   // decodable localization_t messages (one per attempt)
+  int64_t with_pose = 0;  // status "ok" (the library found a pose)
+  int64_t accepted = 0;   // decision "accepted" (used for T_G_M by vilma-estimatord)
+};
+
+// The vilma.localization_t attempts on `channel` (VILMA_LOC) that have a pose (status "ok"),
+// as T_G_I at the query frames' utime, in log order. Localization recall = attempts whose pose
+// is within a tolerance of ground truth / stats->attempts. Throws InputError like ReadPoseLog.
+Trajectory ReadLocalizationLog(const std::string& path, const std::string& channel,
+                               LocalizationLogStats* stats);
+
 }  // namespace vilma
