@@ -53,6 +53,34 @@ std::vector<double> ParseSegments(const std::string& text) {
   return lengths;
 }
 
+// "--within 0.5,1,2": distances [m] >= 0, in the given order.
+std::vector<double> ParseWithin(const std::string& text) {
+  std::vector<double> distances;
+  std::size_t start = 0;
+  while (true) {
+    const std::size_t comma = text.find(',', start);
+    const std::string word = text.substr(start, comma - start);
+    if (word.empty()) {
+      throw UsageError("--within: expected comma-separated distances [m], got '" + text + "'");
+    }
+    const double d = ParseNumber("--within", word);
+    if (d < 0.0) throw UsageError("--within: expected distances >= 0 [m], got " + word);
+    distances.push_back(d);
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return distances;
+}
+
+// A --within distance for the report: two decimals ("0.50") unless that would round it.
+std::string FormatDistance(double d) {
+  char buf[48];
+  std::snprintf(buf, sizeof(buf), "%.2f", d);
+  if (std::strtod(buf, nullptr) == d) return buf;
+  std::snprintf(buf, sizeof(buf), "%.6g", d);
+  return buf;
+}
+
 // JSON string literal with the escapes RFC 8259 requires.
 std::string JsonString(const std::string& s) {
   std::string out = "\"";
@@ -271,7 +299,7 @@ EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
     }
     const bool known = name == "--gt" || name == "--est" || name == "--align" ||
                        name == "--segments" || name == "--max-dt" || name == "--json" ||
-                       name == "--plot";
+                       name == "--plot" || name == "--within";
     if (!known && name.rfind("-", 0) != 0) {
       throw UsageError("unexpected argument '" + args[i] + "' (files go after --gt and --est)");
     }
@@ -287,10 +315,13 @@ EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
       o.est_path = value;
     } else if (name == "--align") {
       if (!ParseAlignmentType(value, &o.eval.alignment)) {
-        throw UsageError("--align: expected posyaw, se3, sim3 or none, got '" + value + "'");
+        throw UsageError("--align: expected posyaw, se3, sim3, none or first, got '" + value +
+                         "'");
       }
     } else if (name == "--segments") {
       o.eval.segment_lengths_m = ParseSegments(value);
+    } else if (name == "--within") {
+      o.eval.within_m = ParseWithin(value);
     } else if (name == "--max-dt") {
       o.eval.association.max_dt_s = ParseNumber("--max-dt", value);
     } else if (name == "--json") {
@@ -318,10 +349,15 @@ void PrintEvalHelp(std::ostream& out) {
          "  --gt FILE             ground-truth trajectory (required)\n"
          "  --est FILE            estimated trajectory (required)\n"
          "  --align TYPE          posyaw (default, VIO: yaw + translation), se3, sim3\n"
-         "                        (monocular: with scale) or none; fitted to all matched poses\n"
+         "                        (monocular: with scale) or none: fitted to all matched\n"
+         "                        poses; first: the yaw + translation that puts the first\n"
+         "                        matched pose onto the ground truth (VIO aligned only at the\n"
+         "                        start)\n"
          "  --segments D1,D2,...  RPE segment lengths [m] along the ground-truth path\n"
          "                        (default 10,20,30,40,50); a length longer than the path\n"
          "                        gets 0 pairs\n"
+         "  --within D1,D2,...    count the matched poses whose aligned position error is\n"
+         "                        <= D [m] (e.g. 0.5 for localization recall), per D\n"
          "  --max-dt S            largest time difference [s] of a matched pair (default 0.01)\n"
          "  --json FILE           also write the results as JSON (docs/evaluation.md)\n"
          "  --plot FILE.png       top-down trajectories + error over time (python3 +\n"
@@ -356,7 +392,9 @@ void WriteEvalReport(std::ostream& out, const EvalCommandOptions& options, const
   out << "gt path:       " << Fixed(result.gt_path_length_m, 3) << " m\n";
   // Alignments fit the rotation to the positions: a (nearly) static trajectory leaves it
   // undetermined, and the rotation errors then hold an arbitrary yaw (or more).
-  if (a.type != AlignmentType::kNone && result.gt_path_length_m < kMinPathForRotationAlignment) {
+  // (first takes its rotation from the first pose's orientation, not from the positions.)
+  if (a.type != AlignmentType::kNone && a.type != AlignmentType::kFirst &&
+      result.gt_path_length_m < kMinPathForRotationAlignment) {
     out << "note:          the ground-truth path is shorter than "
         << kMinPathForRotationAlignment
         << " m: the alignment cannot fix the rotation, so the rotation errors below include an "
@@ -368,7 +406,12 @@ void WriteEvalReport(std::ostream& out, const EvalCommandOptions& options, const
   out << "ATE translation [m]:  rmse " << Fixed(t.rmse, 4) << "  mean " << Fixed(t.mean, 4)
       << "  median " << Fixed(t.median, 4) << "  max " << Fixed(t.max, 4) << "\n";
   out << "ATE rotation [deg]:   rmse " << Fixed(r.rmse, 4) << "  mean " << Fixed(r.mean, 4)
-      << "  median " << Fixed(r.median, 4) << "  max " << Fixed(r.max, 4) << "\n\n";
+      << "  median " << Fixed(r.median, 4) << "  max " << Fixed(r.max, 4) << "\n";
+  for (const WithinCount& w : result.within) {
+    out << "within " << FormatDistance(w.distance_m) << " m: " << w.poses << " / "
+        << w.matched_poses << " poses (" << Fixed(100.0 * w.fraction, 1) << " %)\n";
+  }
+  out << "\n";
   out << "RPE over distance along the ground truth:\n";
   char line[256];
   std::snprintf(line, sizeof(line), "%10s %7s %12s %12s %12s %12s %12s\n", "length[m]", "pairs",
@@ -422,7 +465,15 @@ void WriteEvalJson(std::ostream& out, const EvalCommandOptions& options, const T
     WriteStatsJson(out, "rotation", "deg", e.rotation_deg);
     out << "}";
   }
-  out << (result.rpe.empty() ? "]\n" : "\n  ]\n");
+  out << (result.rpe.empty() ? "],\n" : "\n  ],\n");
+  out << "  \"within\": [";
+  for (std::size_t i = 0; i < result.within.size(); ++i) {
+    const WithinCount& w = result.within[i];
+    out << (i == 0 ? "\n" : ",\n") << "    {\"distance_m\": " << JsonNumber(w.distance_m)
+        << ", \"poses\": " << w.poses << ", \"matched_poses\": " << w.matched_poses
+        << ", \"fraction\": " << JsonNumber(w.fraction) << "}";
+  }
+  out << (result.within.empty() ? "]\n" : "\n  ]\n");
   out << "}\n";
 }
 

@@ -80,13 +80,15 @@ const char* AlignmentTypeName(AlignmentType type) {
       return "sim3";
     case AlignmentType::kNone:
       return "none";
+    case AlignmentType::kFirst:
+      return "first";
   }
   return "unknown";
 }
 
 bool ParseAlignmentType(const std::string& name, AlignmentType* type) {
   for (AlignmentType t : {AlignmentType::kPosYaw, AlignmentType::kSe3, AlignmentType::kSim3,
-                          AlignmentType::kNone}) {
+                          AlignmentType::kNone, AlignmentType::kFirst}) {
     if (name == AlignmentTypeName(t)) {
       *type = t;
       return true;
@@ -109,6 +111,8 @@ std::size_t MinimumPosesForAlignment(AlignmentType type) {
       return 3;
     case AlignmentType::kNone:
       return 0;
+    case AlignmentType::kFirst:
+      return 1;
   }
   return 0;
 }
@@ -194,6 +198,40 @@ Alignment AlignPositionYaw(const std::vector<Eigen::Vector3d>& p_G,
   return a;
 }
 
+double GravityYaw(const Eigen::Quaterniond& R_quat) {
+  // We want the yaw theta that brings Rz(theta) closest to R: minimize the angle phi of
+  // Rz(theta)^T R. Since trace(Q) = 1 + 2 cos(phi) for any rotation Q, that is maximizing
+  //   f(theta) = trace(Rz(theta)^T R)
+  //            = cos(theta) (R00 + R11) + sin(theta) (R10 - R01) + R22
+  // (with Rz(theta) = [c -s 0; s c 0; 0 0 1]), whose maximum is at
+  //   theta = atan2(R10 - R01, R00 + R11).
+  // Write R = Rz(tau) S with S a rotation by beta about a horizontal unit axis u (swing-twist
+  // decomposition about z). S = cos(beta) I + sin(beta) [u]x + (1 - cos(beta)) u u^T gives
+  // S00 + S11 = 1 + cos(beta) and S10 - S01 = 2 sin(beta) u_z = 0, so
+  //   R00 + R11 = cos(tau) (1 + cos(beta)),  R10 - R01 = sin(tau) (1 + cos(beta)),
+  // and theta = tau exactly: a roll/pitch (the swing) never leaks into the yaw. The same holds
+  // for R = S' Rz(tau) (S' = Rz(tau) S Rz(-tau) is again a horizontal-axis rotation).
+  // Undetermined only when beta = 180 deg (both terms 0): then theta = 0.
+  const Eigen::Matrix3d R = R_quat.normalized().toRotationMatrix();
+  const double y = R(1, 0) - R(0, 1);
+  const double x = R(0, 0) + R(1, 1);
+  if (x == 0.0 && y == 0.0) return 0.0;
+  return std::atan2(y, x);
+}
+
+Alignment AlignFirstPose(const Transformation& T_G_B0, const Transformation& T_E_B0) {
+  // R_G_E should map R_E_B0 onto R_G_B0: R_G_E R_E_B0 = R_G_B0 <=> R_G_E = R_G_B0 R_E_B0^T.
+  // Keep only its yaw (gravity is z in both worlds), then put the first positions together:
+  // p_G_B0 = R_G_E p_E_B0 + p_G_E.
+  const double yaw = GravityYaw(T_G_B0.rotation() * T_E_B0.rotation().conjugate());
+  // (w, 0, 0, z) written out: AngleAxis would give x = y = -0.0 for a negative yaw.
+  const Eigen::Quaterniond q_G_E(std::cos(0.5 * yaw), 0.0, 0.0, std::sin(0.5 * yaw));
+  Alignment a;
+  a.type = AlignmentType::kFirst;
+  a.T_G_E = Transformation(q_G_E, T_G_B0.translation() - q_G_E * T_E_B0.translation());
+  return a;
+}
+
 Alignment AlignPositions(AlignmentType type, const std::vector<Eigen::Vector3d>& p_G,
                          const std::vector<Eigen::Vector3d>& p_E) {
   switch (type) {
@@ -205,6 +243,9 @@ Alignment AlignPositions(AlignmentType type, const std::vector<Eigen::Vector3d>&
       return AlignUmeyama(p_G, p_E, true);
     case AlignmentType::kNone:
       break;
+    case AlignmentType::kFirst:
+      throw std::invalid_argument(
+          "AlignPositions: alignment 'first' needs orientations, use AlignFirstPose");
   }
   return Alignment{};
 }
@@ -246,7 +287,29 @@ std::string EvalOptions::Validate() const {
   for (double d : segment_lengths_m) {
     if (!std::isfinite(d) || d <= 0.0) return "segment_lengths_m: expected lengths > 0 [m]";
   }
+  for (double d : within_m) {
+    if (!std::isfinite(d) || d < 0.0) return "within_m: expected distances >= 0 [m]";
+  }
   return "";
+}
+
+std::vector<WithinCount> CountWithin(const std::vector<double>& translation_errors_m,
+                                     const std::vector<double>& distances_m) {
+  std::vector<WithinCount> counts;
+  counts.reserve(distances_m.size());
+  for (double d : distances_m) {
+    WithinCount c;
+    c.distance_m = d;
+    c.matched_poses = translation_errors_m.size();
+    for (double e : translation_errors_m) {
+      if (e <= d) ++c.poses;  // the boundary is within
+    }
+    c.fraction = c.matched_poses == 0
+                     ? 0.0
+                     : static_cast<double>(c.poses) / static_cast<double>(c.matched_poses);
+    counts.push_back(c);
+  }
+  return counts;
 }
 
 RelativeError ComputeRelativeError(const std::vector<Transformation>& T_G_B_gt,
@@ -314,7 +377,13 @@ EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est,
     p_E.push_back(est.T_W_B[assoc.est_index[k]].translation());
   }
   try {
-    result.alignment = AlignPositions(options.alignment, p_G, p_E);
+    if (options.alignment == AlignmentType::kFirst) {
+      // The first matched pose in association order, which is estimate time order (or index).
+      result.alignment = AlignFirstPose(gt.T_W_B[assoc.gt_index.front()],
+                                        est.T_W_B[assoc.est_index.front()]);
+    } else {
+      result.alignment = AlignPositions(options.alignment, p_G, p_E);
+    }
   } catch (const std::invalid_argument& e) {
     throw InputError(std::string("alignment failed: ") + e.what());
   }
@@ -339,6 +408,7 @@ EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est,
   for (double d : options.segment_lengths_m) {
     result.rpe.push_back(ComputeRelativeError(result.T_G_B_gt, result.T_G_B_est, d));
   }
+  result.within = CountWithin(result.ate.translation_errors_m, options.within_m);
   return result;
 }
 

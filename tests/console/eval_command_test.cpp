@@ -140,7 +140,16 @@ TEST_CASE("eval argument parsing", "[eval]") {
   CHECK_THROWS_WITH(ParseEvalArgs({"a.csv", "b.txt"}),
                     "unexpected argument 'a.csv' (files go after --gt and --est)");
   CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--align", "affine"}),
-                    "--align: expected posyaw, se3, sim3 or none, got 'affine'");
+                    "--align: expected posyaw, se3, sim3, none or first, got 'affine'");
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--align", "first-se3"}),
+                    "--align: expected posyaw, se3, sim3, none or first, got 'first-se3'");
+  CHECK(ParseEvalArgs({"--gt", "a", "--est", "b", "--align", "first"}).eval.alignment ==
+        AlignmentType::kFirst);
+  CHECK(d.eval.within_m.empty());
+  CHECK(ParseEvalArgs({"--gt", "a", "--est", "b", "--within", "0.5"}).eval.within_m ==
+        std::vector<double>{0.5});
+  CHECK(ParseEvalArgs({"--gt", "a", "--est", "b", "--within=1,0.25,0"}).eval.within_m ==
+        std::vector<double>{1.0, 0.25, 0.0});
   CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--segments", "10,x"}),
                     "--segments: expected a number, got 'x'");
   CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--segments", "10,0"}),
@@ -282,6 +291,143 @@ TEST_CASE("eval warns when a static trajectory leaves the alignment's rotation f
   Files g;
   WriteInputs(g);
   CHECK_THAT(Eval({"--gt", g.gt, "--est", g.est}).out, !Catch::Contains("note:"));
+}
+
+}  // namespace
+}  // namespace vilma::console
+
+namespace vilma::console {
+namespace {
+
+TEST_CASE("eval --within: bad arguments are usage errors naming the option", "[eval]") {
+  struct Case {
+    std::vector<std::string> within;
+    std::string message;
+  };
+  const std::vector<Case> cases = {
+      {{"--within", "-0.5"}, "--within: expected distances >= 0 [m], got -0.5"},
+      {{"--within", "0.5,-1"}, "--within: expected distances >= 0 [m], got -1"},
+      {{"--within", ""}, "--within: expected a non-empty value"},
+      {{"--within="}, "--within: expected a non-empty value"},
+      {{"--within"}, "--within: expected a value"},
+      {{"--within", "abc"}, "--within: expected a number, got 'abc'"},
+      {{"--within", "0.5m"}, "--within: expected a number, got '0.5m'"},
+      {{"--within", "nan"}, "--within: expected a number, got 'nan'"},
+      {{"--within", "0.5,"}, "--within: expected comma-separated distances [m], got '0.5,'"},
+      {{"--within", ",0.5"}, "--within: expected comma-separated distances [m], got ',0.5'"},
+      {{"--within", "0.5,,1"}, "--within: expected comma-separated distances [m], got '0.5,,1'"},
+  };
+  for (const Case& c : cases) {
+    std::vector<std::string> args = {"--gt", "a.txt", "--est", "b.txt"};
+    args.insert(args.end(), c.within.begin(), c.within.end());
+    INFO(c.message);
+    CHECK_THROWS_WITH(ParseEvalArgs(args), c.message);
+    const Result r = Eval(args);
+    CHECK(r.code == kExitUsage);
+    CHECK(r.err == "vilma eval: " + c.message + "\n(see 'vilma eval --help')\n");
+    CHECK(r.out.empty());
+  }
+  const Result help = Eval({"--help"});
+  CHECK_THAT(help.out, Catch::Contains("--within D1,D2,...") && Catch::Contains("first:"));
+}
+
+// 30 poses along a line; the estimate is in a world yawed by 30 deg and shifted, with a known
+// position offset (in G) per pose: 0 for the first, 0.6 m for poses 7 and 20, 0.1 * (k % 4)
+// otherwise. So after --align first the errors are those offsets.
+void WriteKnownErrors(Files& f) {
+  f.dir = TestDir();
+  f.gt = f.dir + "/known_gt.txt";
+  f.est = f.dir + "/known_est.txt";
+  const Transformation T_E_G(
+      Eigen::Quaterniond(Eigen::AngleAxisd(kPi / 6.0, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d(10.0, -3.0, 0.5));
+  Trajectory gt, est;
+  for (int k = 0; k < 30; ++k) {
+    const int64_t t = 1403715273262142976 + int64_t{k} * 100000000;
+    const Transformation T_G_B(
+        Eigen::Quaterniond(Eigen::AngleAxisd(0.05 * k, Eigen::Vector3d::UnitZ())),
+        Eigen::Vector3d(0.5 * k, 0.1 * k, 1.0));
+    const double offset = (k == 7 || k == 20) ? 0.6 : 0.1 * (k % 4);
+    gt.Add(t, T_G_B);
+    est.Add(t, T_E_G * Transformation(T_G_B.rotation(),
+                                      T_G_B.translation() + Eigen::Vector3d(0.0, offset, 0.0)));
+  }
+  WriteTrajectoryFile(f.gt, gt, TrajectoryFormat::kTum);
+  WriteTrajectoryFile(f.est, est, TrajectoryFormat::kTum);
+}
+
+TEST_CASE("eval --align first --within: report and JSON", "[eval]") {
+  Files f;
+  WriteKnownErrors(f);
+  const std::string json = f.dir + "/first.json";
+  const Result r = Eval({"--gt", f.gt, "--est", f.est, "--align", "first", "--within",
+                         "0.5,0.35,1", "--segments", "1", "--json", json});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  CHECK_THAT(r.out, Catch::Contains("alignment:     first  rotation vector [deg] (0.000, 0.000, "
+                                    "-30.000)  translation [m]"));
+  // Offsets 0.1 * (k % 4) <= 0.3 for 28 poses, 0.6 for 2.
+  CHECK_THAT(r.out, Catch::Contains("within 0.50 m: 28 / 30 poses (93.3 %)\n"
+                                    "within 0.35 m: 28 / 30 poses (93.3 %)\n"
+                                    "within 1.00 m: 30 / 30 poses (100.0 %)\n"));
+  CHECK_THAT(r.out, !Catch::Contains("note:"));
+  CHECK_THAT(r.out, Catch::Contains("ATE translation [m]:") &&
+                        Catch::Contains("max 0.6000"));
+
+  std::string parsed;
+  const std::string script =
+      "import json,sys; d=json.load(open(sys.argv[1])); t=d['alignment_transform']; "
+      "print(d['alignment'], d['matched_poses'], '%.6f %.6f' % (t['quaternion_wxyz'][0], "
+      "t['quaternion_wxyz'][3]), ' '.join('%.3f' % x for x in t['translation_m']), "
+      "[(w['distance_m'], w['poses'], w['matched_poses'], round(w['fraction'], 4)) "
+      "for w in d['within']])";
+  const int code = Run("python3 -c \"" + script + "\" " + json + " 2>&1", &parsed);
+  if (code != 0 && parsed.find("not found") != std::string::npos) {
+    WARN("python3 not available, JSON checked by text only");
+    CHECK_THAT(Slurp(json), Catch::Contains("\"alignment\": \"first\""));
+  } else {
+    INFO(Slurp(json));
+    CHECK(code == 0);
+    // T_G_E = T_E_G^-1: yaw -30 deg, p_G_E = -Rz(-30 deg) (10, -3, 0.5).
+    const double c = std::cos(kPi / 6.0), s = std::sin(kPi / 6.0);
+    char expected[256];
+    std::snprintf(expected, sizeof(expected),
+                  "first 30 %.6f %.6f %.3f %.3f %.3f [(0.5, 28, 30, 0.9333), (0.35, 28, 30, "
+                  "0.9333), (1, 30, 30, 1)]\n",
+                  std::cos(kPi / 12.0), -std::sin(kPi / 12.0), -(c * 10.0 + s * -3.0),
+                  -(-s * 10.0 + c * -3.0), -0.5);
+    CHECK(parsed == expected);
+  }
+
+  // Without --within the JSON has an empty list and the report no within line.
+  const Result plain = Eval({"--gt", f.gt, "--est", f.est, "--json", json});
+  REQUIRE(plain.code == kExitOk);
+  CHECK_THAT(plain.out, !Catch::Contains("within"));
+  CHECK_THAT(Slurp(json), Catch::Contains("\"within\": []"));
+}
+
+TEST_CASE("eval --within: a pose exactly at D counts as within", "[eval]") {
+  // Errors 0, 0.25, 0.5, 0.75, 1.0 (exact in binary and in the files' 9 decimals), 6 times.
+  Files f;
+  f.dir = TestDir();
+  f.gt = f.dir + "/boundary_gt.txt";
+  f.est = f.dir + "/boundary_est.txt";
+  Trajectory gt, est;
+  for (int k = 0; k < 30; ++k) {
+    const int64_t t = 1403715273262142976 + int64_t{k} * 100000000;
+    gt.Add(t, Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(k, 0.0, 0.0)));
+    est.Add(t, Transformation(Eigen::Quaterniond::Identity(),
+                              Eigen::Vector3d(k, 0.25 * (k % 5), 0.0)));
+  }
+  WriteTrajectoryFile(f.gt, gt, TrajectoryFormat::kTum);
+  WriteTrajectoryFile(f.est, est, TrajectoryFormat::kTum);
+  const Result r = Eval({"--gt", f.gt, "--est", f.est, "--align", "none", "--within",
+                         "0.5,0.125,0"});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  CHECK_THAT(r.out, Catch::Contains("within 0.50 m: 18 / 30 poses (60.0 %)\n"
+                                    "within 0.125 m: 6 / 30 poses (20.0 %)\n"
+                                    "within 0.00 m: 6 / 30 poses (20.0 %)\n"));
 }
 
 }  // namespace

@@ -148,6 +148,194 @@ TEST_CASE("posyaw removes yaw + translation but not roll", "[eval]") {
   CHECK(se3.ate.translation_m.rmse < 1e-9);
 }
 
+TEST_CASE("GravityYaw is the yaw closest to a rotation; roll/pitch does not leak", "[eval]") {
+  // Pure swings (rotations about horizontal axes) have no yaw.
+  for (double axis_deg : {0.0, 30.0, 90.0, 135.0, -60.0}) {
+    const Eigen::Vector3d u(std::cos(axis_deg * kDeg), std::sin(axis_deg * kDeg), 0.0);
+    for (double beta_deg : {-40.0, 5.0, 89.0, 170.0}) {
+      const Eigen::Quaterniond S(Eigen::AngleAxisd(beta_deg * kDeg, u));
+      INFO("axis " << axis_deg << " deg, swing " << beta_deg << " deg");
+      CHECK(std::abs(GravityYaw(S)) < 1e-12);
+      for (double yaw_deg : {-170.0, -45.0, 0.0, 30.0, 120.0}) {
+        CHECK(GravityYaw(Rz(yaw_deg * kDeg) * S) == Approx(yaw_deg * kDeg).margin(1e-12));
+        CHECK(GravityYaw(S * Rz(yaw_deg * kDeg)) == Approx(yaw_deg * kDeg).margin(1e-12));
+      }
+    }
+  }
+  // For any rotation it minimizes the angle of Rz(theta)^T R: no theta on a 0.01 deg grid is
+  // better.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int trial = 0; trial < 20; ++trial) {
+    const Eigen::Quaterniond R =
+        ExpSO3(Eigen::Vector3d(u(rng), u(rng), 3.0 * u(rng)));
+    const double yaw = GravityYaw(R);
+    const double best = AngleBetween(Rz(yaw), R);
+    double grid_best = 10.0;
+    for (int i = -18000; i < 18000; ++i) {
+      grid_best = std::min(grid_best, AngleBetween(Rz(i * 0.01 * kDeg), R));
+    }
+    INFO("trial " << trial);
+    CHECK(best <= grid_best + 1e-12);
+    CHECK(best > grid_best - 0.01 * kDeg);  // the grid gets close to it
+  }
+}
+
+TEST_CASE("align first: the yaw + translation of the first matched pose", "[eval]") {
+  const Trajectory gt = MakeLoop();
+  const Transformation T_G_E(Rz(0.8), Eigen::Vector3d(1.5, -2.0, 0.3));
+  const Trajectory clean = Transform(gt, T_G_E.inverse(), 1.0);
+  CHECK(MinimumPosesForAlignment(AlignmentType::kFirst) == 1);
+  AlignmentType parsed = AlignmentType::kNone;
+  CHECK(ParseAlignmentType("first", &parsed));
+  CHECK(parsed == AlignmentType::kFirst);
+  CHECK(std::string(AlignmentTypeName(AlignmentType::kFirst)) == "first");
+  CHECK_FALSE(ParseAlignmentType("first-se3", &parsed));
+
+  // Position noise n_k in G on every pose: p_E_k = T_E_G (p_G_k + n_k). The first pose fixes
+  // R_G_E exactly (orientations are clean) and p_G_E' = p_G_E - n_0, so the aligned positions
+  // are p_G_k + n_k - n_0: the ATE of pose k is exactly |n_k - n_0|.
+  std::mt19937 rng(3);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  std::vector<Eigen::Vector3d> n(gt.size());
+  for (auto& x : n) x = Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  SECTION("noise-free first pose: the exact transform") {
+    n[0].setZero();
+  }
+  SECTION("noisy first pose: the first pose's transform") {
+    REQUIRE(n[0].norm() > 0.01);
+  }
+  Trajectory est = gt;
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    est.T_W_B[k] = T_G_E.inverse() * Transformation(gt.T_W_B[k].rotation(),
+                                                    gt.T_W_B[k].translation() + n[k]);
+  }
+  const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kFirst));
+  CHECK(r.alignment.type == AlignmentType::kFirst);
+  CHECK(r.alignment.scale == 1.0);
+  CHECK(AngleBetween(r.alignment.T_G_E.rotation(), Rz(0.8)) < 1e-12);
+  CHECK((r.alignment.T_G_E.translation() - (T_G_E.translation() - n[0])).norm() < 1e-12);
+  REQUIRE(r.ate.translation_errors_m.size() == gt.size());
+  CHECK(r.ate.translation_errors_m[0] < 1e-12);
+  double worst = 0.0;
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    worst = std::max(worst, std::abs(r.ate.translation_errors_m[k] - (n[k] - n[0]).norm()));
+  }
+  CHECK(worst < 1e-12);
+  CHECK(r.ate.rotation_deg.max < 1e-6);
+
+  // Not a fit over the whole trajectory: posyaw spreads the error instead, so its first pose
+  // is off and its RMSE is lower.
+  const EvalResult posyaw = EvaluateTrajectory(gt, est, Options(AlignmentType::kPosYaw));
+  CHECK(posyaw.ate.translation_m.rmse < r.ate.translation_m.rmse);
+}
+
+TEST_CASE("align first keeps growing drift that a whole-trajectory fit would hide", "[eval]") {
+  // Estimate = gt scaled 1.02 about the first position (scale drift from the start), in a
+  // yawed world. first: the error of pose k is exactly 0.02 |p_k - p_0|.
+  const Trajectory gt = MakeLoop();
+  const Eigen::Vector3d p0 = gt.T_W_B[0].translation();
+  Trajectory drifted = gt;
+  for (auto& T : drifted.T_W_B) {
+    T = Transformation(T.rotation(), p0 + 1.02 * (T.translation() - p0));
+  }
+  const Trajectory est = Transform(drifted, Transformation(Rz(-2.5), Eigen::Vector3d(3, 3, 0)),
+                                   1.0);
+  const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kFirst));
+  double worst = 0.0;
+  for (std::size_t k = 0; k < gt.size(); ++k) {
+    const double expected = 0.02 * (gt.T_W_B[k].translation() - p0).norm();
+    worst = std::max(worst, std::abs(r.ate.translation_errors_m[k] - expected));
+  }
+  CHECK(worst < 1e-9);
+  CHECK(r.ate.translation_m.max > 0.2);
+}
+
+TEST_CASE("align first: a roll/pitch of the estimate's world stays in the error", "[eval]") {
+  // R_G_E = Rz(yaw) S or S Rz(yaw), S a 5 deg tilt about the horizontal axis at 30 deg (a wrong
+  // gravity direction). The yaw must come out exactly and every rotation error is the tilt.
+  const Trajectory gt = MakeLoop();
+  const Eigen::Vector3d axis(std::cos(30.0 * kDeg), std::sin(30.0 * kDeg), 0.0);
+  const Eigen::Quaterniond S(Eigen::AngleAxisd(5.0 * kDeg, axis));
+  const double yaw = -1.9;
+  for (const Eigen::Quaterniond& R_G_E : {Rz(yaw) * S, S * Rz(yaw)}) {
+    const Transformation T_G_E(R_G_E, Eigen::Vector3d(-4, 2, 1));
+    const Trajectory est = Transform(gt, T_G_E.inverse(), 1.0);
+    const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kFirst));
+    CHECK(AngleBetween(r.alignment.T_G_E.rotation(), Rz(yaw)) < 1e-12);
+    CHECK(r.ate.translation_errors_m[0] < 1e-12);
+    CHECK(r.ate.rotation_deg.min == Approx(5.0).epsilon(1e-9));
+    CHECK(r.ate.rotation_deg.max == Approx(5.0).epsilon(1e-9));
+    CHECK(r.ate.translation_m.max > 0.1);  // the tilt moves the later positions
+  }
+}
+
+TEST_CASE("align first uses the first MATCHED pose; one match is enough", "[eval]") {
+  const Trajectory gt = MakeLoop(50);
+  const Transformation T_G_E(Rz(0.4), Eigen::Vector3d(1, 2, 3));
+  Trajectory est;
+  // An unmatched, wildly wrong pose before the others (0.5 s before the first gt stamp).
+  est.Add(gt.t_ns[0] - 500000000, Transformation(Rz(2.0), Eigen::Vector3d(100, 0, 0)));
+  const Trajectory moved = Transform(gt, T_G_E.inverse(), 1.0);
+  for (std::size_t k = 3; k < moved.size(); ++k) est.Add(moved.t_ns[k], moved.T_W_B[k]);
+  const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kFirst));
+  CHECK(r.association.size() == 47);
+  CHECK(AngleBetween(r.alignment.T_G_E.rotation(), Rz(0.4)) < 1e-12);
+  CHECK((r.alignment.T_G_E.translation() - T_G_E.translation()).norm() < 1e-12);
+  CHECK(r.ate.translation_m.max < 1e-12);
+
+  Trajectory one;
+  one.Add(moved.t_ns[10], moved.T_W_B[10]);
+  const EvalResult single = EvaluateTrajectory(gt, one, Options(AlignmentType::kFirst));
+  CHECK(single.association.size() == 1);
+  CHECK(single.ate.translation_m.max < 1e-12);
+  CHECK_THROWS_AS(AlignPositions(AlignmentType::kFirst, {Eigen::Vector3d::Zero()},
+                                 {Eigen::Vector3d::Zero()}),
+                  std::invalid_argument);
+}
+
+TEST_CASE("within counts: known per-pose errors, the boundary is within", "[eval]") {
+  const std::vector<WithinCount> c =
+      CountWithin({0.1, 0.5, std::nextafter(0.5, 1.0), 1.0, 2.0}, {0.5, 0.0, 1.0, 10.0});
+  REQUIRE(c.size() == 4);
+  CHECK(c[0].distance_m == 0.5);
+  CHECK(c[0].poses == 2);
+  CHECK(c[0].matched_poses == 5);
+  CHECK(c[0].fraction == 0.4);
+  CHECK(c[1].poses == 0);
+  CHECK(c[2].poses == 4);
+  CHECK(c[3].poses == 5);
+  CHECK(c[3].fraction == 1.0);
+  CHECK(CountWithin({}, {0.5})[0].fraction == 0.0);
+
+  // 30 poses on a line with a known offset each: errors 0, 0.25, 0.5, 0.75, 1.0 (exact in
+  // binary) repeating, so within 0.5 m: 18 of 30.
+  Trajectory gt, est;
+  for (int k = 0; k < 30; ++k) {
+    const int64_t t = int64_t{k} * 100000000;
+    gt.Add(t, Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(k, 0.0, 0.0)));
+    est.Add(t, Transformation(Eigen::Quaterniond::Identity(),
+                              Eigen::Vector3d(k, 0.25 * (k % 5), 0.0)));
+  }
+  EvalOptions options = Options(AlignmentType::kNone);
+  options.within_m = {0.5, 0.49, 1.0};
+  const EvalResult r = EvaluateTrajectory(gt, est, options);
+  REQUIRE(r.within.size() == 3);
+  CHECK(r.ate.translation_m.max == 1.0);
+  CHECK(r.within[0].poses == 18);
+  CHECK(r.within[0].matched_poses == 30);
+  CHECK(r.within[0].fraction == Approx(0.6).epsilon(1e-15));
+  CHECK(r.within[1].poses == 12);
+  CHECK(r.within[2].poses == 30);
+  CHECK(EvaluateTrajectory(gt, est, Options(AlignmentType::kNone)).within.empty());
+
+  options.within_m = {0.5, -0.1};
+  CHECK(options.Validate() == "within_m: expected distances >= 0 [m]");
+  CHECK_THROWS_AS(EvaluateTrajectory(gt, est, options), std::invalid_argument);
+  options.within_m = {std::nan("")};
+  CHECK_FALSE(options.Validate().empty());
+}
+
 TEST_CASE("a known constant offset gives a known ATE", "[eval]") {
   const Trajectory gt = MakeLoop();
   const Transformation offset(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.3, 0.0, -0.4));

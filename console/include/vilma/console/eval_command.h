@@ -1,7 +1,8 @@
 // `vilma eval`: absolute and relative trajectory error of an estimate against ground truth.
 //
-//   vilma eval --gt GT --est EST [--align posyaw|se3|sim3|none] [--segments 10,20,30,40,50]
-//              [--max-dt 0.01] [--json OUT.json] [--plot OUT.png]
+//   vilma eval --gt GT --est EST [--align posyaw|se3|sim3|none|first]
+//              [--segments 10,20,30,40,50] [--within 0.5,1] [--max-dt 0.01] [--json OUT.json]
+//              [--plot OUT.png]
 //
 // GT and EST may each be TUM, EuRoC CSV or KITTI (told apart by content). The report goes to
 // stdout; --json writes the same numbers with the stable schema of docs/evaluation.md; --plot
@@ -21,7 +22,7 @@ namespace vilma::console {
 struct EvalCommandOptions {
   std::string gt_path;    // --gt, required
   std::string est_path;   // --est, required
-  EvalOptions eval;       // --align, --segments, --max-dt
+  EvalOptions eval;       // --align, --segments, --within, --max-dt
   std::string json_path;  // --json, empty: no JSON
   std::string plot_path;  // --plot, empty: no plot
   bool help = false;      // --help / -h

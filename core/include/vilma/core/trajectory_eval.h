@@ -6,12 +6,14 @@
 //   1. Associate: pair each estimate pose with a ground-truth pose (time stamps within
 //      max_dt, nearest first, each pose used at most once), or by index without stamps.
 //   2. Align: find S_G_E (rotation R, translation t, scale s) mapping the estimate's world E
-//      onto the ground truth's world G from ALL matched positions: p_G = s R p_E + t.
+//      onto the ground truth's world G from ALL matched positions: p_G = s R p_E + t; or, for
+//      kFirst, the yaw + translation that puts the FIRST matched pose onto its ground truth.
 //   3. ATE: per matched pose, |p_gt - p_est'| [m] and angle(R_gt^T R_est') [deg] of the aligned
 //      estimate; RMSE, mean, median, max.
 //   4. RPE: distance-based segments along the ground-truth path; per start pose i the first pose
 //      j with path(j) - path(i) >= d; error E = (T_gt_i^-1 T_gt_j)^-1 (T_est_i^-1 T_est_j),
 //      translation |t_E| [m] and 100 |t_E| / d [%], rotation angle(R_E) [deg].
+//   5. Within: per distance D, how many matched poses have an ATE translation error <= D.
 #pragma once
 
 #include <cstddef>
@@ -58,8 +60,9 @@ enum class AlignmentType {
   kSe3,     // 6-DoF rigid: Umeyama without scale
   kSim3,    // 7-DoF: Umeyama with scale; monocular VO
   kNone,    // identity
+  kFirst,   // 4-DoF from the first matched pose only: VIO started at a known pose
 };
-// "posyaw", "se3", "sim3", "none".
+// "posyaw", "se3", "sim3", "none", "first".
 const char* AlignmentTypeName(AlignmentType type);
 // Parses the names above; false for anything else.
 bool ParseAlignmentType(const std::string& name, AlignmentType* type);
@@ -75,7 +78,7 @@ struct Alignment {
 };
 
 // Minimum number of matched positions each alignment needs: none 0 (but evaluation needs 1),
-// posyaw 2, se3 and sim3 3 (non-collinear for a unique rotation).
+// posyaw 2, se3 and sim3 3 (non-collinear for a unique rotation), first 1.
 std::size_t MinimumPosesForAlignment(AlignmentType type);
 
 // Umeyama 1991 ("Least-squares estimation of transformation parameters between two point
@@ -91,7 +94,22 @@ Alignment AlignUmeyama(const std::vector<Eigen::Vector3d>& p_G,
 Alignment AlignPositionYaw(const std::vector<Eigen::Vector3d>& p_G,
                            const std::vector<Eigen::Vector3d>& p_E);
 
-// Dispatches on type (kNone -> identity).
+// Yaw about the gravity axis z of a rotation R: the theta minimizing the angle of
+// Rz(theta)^T R, i.e. the twist angle of R's swing-twist decomposition about z,
+// theta = atan2(R(1,0) - R(0,1), R(0,0) + R(1,1)) (derivation in the .cpp). A rotation about
+// any horizontal axis (a pure roll/pitch) has yaw 0; Rz(a) S and S Rz(a) with such an S have
+// yaw a. 0 when undetermined (R a half turn about a horizontal axis).
+double GravityYaw(const Eigen::Quaterniond& R);
+
+// kFirst: the yaw + translation S_G_E that maps the estimate's first matched pose T_E_B0 onto
+// the ground truth's T_G_B0: R_G_E = Rz(GravityYaw(R_G_B0 R_E_B0^T)), p_G_E = p_G_B0 -
+// R_G_E p_E_B0. So the first positions coincide exactly and the first headings agree; a roll or
+// pitch difference stays in the errors (for VIO it is observable, as for posyaw). This is
+// "aligned only at the start": a robot whose VIO was started at a known pose.
+Alignment AlignFirstPose(const Transformation& T_G_B0, const Transformation& T_E_B0);
+
+// Dispatches on type (kNone -> identity). kFirst needs poses: use AlignFirstPose
+// (std::invalid_argument here).
 Alignment AlignPositions(AlignmentType type, const std::vector<Eigen::Vector3d>& p_G,
                          const std::vector<Eigen::Vector3d>& p_E);
 
@@ -116,6 +134,9 @@ struct EvalOptions {
   // RPE segment lengths [m] along the ground-truth path; each > 0.
   std::vector<double> segment_lengths_m = {10.0, 20.0, 30.0, 40.0, 50.0};
   AssociationOptions association;
+  // Distances D [m] (each finite, >= 0) for the "within" counts: matched poses whose ATE
+  // translation error is <= D. Empty: none computed.
+  std::vector<double> within_m;
   std::string Validate() const;
 };
 
@@ -135,6 +156,18 @@ struct RelativeError {
   ErrorStats rotation_deg;
 };
 
+// Matched poses whose aligned position error is <= distance_m (the boundary counts as within),
+// e.g. a localization benchmark's recall = (results within 0.5 m) / attempts.
+struct WithinCount {
+  double distance_m = 0.0;
+  std::size_t poses = 0;          // matched poses with translation error <= distance_m
+  std::size_t matched_poses = 0;  // all matched poses
+  double fraction = 0.0;          // poses / matched_poses (0 when nothing matched)
+};
+// One WithinCount per distance, same order.
+std::vector<WithinCount> CountWithin(const std::vector<double>& translation_errors_m,
+                                     const std::vector<double>& distances_m);
+
 struct EvalResult {
   Association association;
   Alignment alignment;
@@ -146,6 +179,7 @@ struct EvalResult {
   double gt_path_length_m = 0.0;  // along the matched ground-truth poses
   AbsoluteError ate;
   std::vector<RelativeError> rpe;  // one per options.segment_lengths_m, same order
+  std::vector<WithinCount> within; // one per options.within_m, same order
 };
 
 // Distance-based RPE over matched, aligned poses (see the header comment). Exposed for tests.
