@@ -1,6 +1,8 @@
 #include "vilma/localizer/descriptor_index.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
+#include <cstdint>
 #include <cstring>
 #include <iostream>
 #include <random>
@@ -114,4 +116,144 @@ TEST_CASE("descriptor index: projection whitens the matching noise, bad input th
                   std::invalid_argument);
   CHECK_THROWS_AS(DescriptorIndex(Eigen::MatrixXf::Zero(3, 512), d.data(), kBytes, 10),
                   std::invalid_argument);
+}
+
+TEST_CASE("descriptor index: Hamming distance equals a bit-by-bit count", "[localization]") {
+  // HammingDistance has a POPCNT and a portable build (target_clones) and a byte tail.
+  std::mt19937 rng(13);
+  std::uniform_int_distribution<int> byte(0, 255);
+  for (int bytes : {1, 7, 8, 13, 32, 64}) {
+    for (int t = 0; t < 50; ++t) {
+      std::vector<uint8_t> a(bytes), b(bytes);
+      for (int i = 0; i < bytes; ++i) {
+        a[i] = static_cast<uint8_t>(byte(rng));
+        b[i] = static_cast<uint8_t>(byte(rng));
+      }
+      int expected = 0;
+      for (int i = 0; i < 8 * bytes; ++i) expected += ((a[i / 8] ^ b[i / 8]) >> (i % 8)) & 1;
+      REQUIRE(HammingDistance(a.data(), b.data(), bytes) == expected);
+    }
+  }
+}
+
+TEST_CASE("descriptor index: projections and distances match a double-precision reference",
+          "[localization]") {
+  // Random projections of several sizes exercise every branch of the distance summation (D < 4,
+  // D % 4 tails, D % 8 == 4, the unrolled D = 16) and of the set-bit projection.
+  const int dims = GENERATE(2, 6, 12, 16, 20);
+  std::mt19937 rng(17);
+  std::normal_distribution<float> gauss(0.f, 0.1f);
+  std::uniform_int_distribution<int> byte(0, 255);
+  Eigen::MatrixXf P(dims, 8 * kBytes);
+  for (int i = 0; i < P.size(); ++i) P.data()[i] = gauss(rng);
+  const int count = 3000;
+  std::vector<uint8_t> desc(static_cast<std::size_t>(count) * kBytes);
+  for (uint8_t& b : desc) b = static_cast<uint8_t>(byte(rng));
+  DescriptorIndexOptions options;
+  options.codebook_size = 8;
+  const DescriptorIndex index(P, desc.data(), kBytes, count, options);
+  REQUIRE(index.dimensions() == dims);
+  // Reference projections y = P s in double precision.
+  auto reference = [&](const uint8_t* d) {
+    float s[8 * kBytes];
+    DescriptorToSigns(d, kBytes, s);
+    return Eigen::VectorXd(P.cast<double>() *
+                           Eigen::Map<Eigen::VectorXf>(s, 8 * kBytes).cast<double>());
+  };
+  std::vector<Eigen::VectorXd> y_ref(count);
+  for (int i = 0; i < count; ++i) {
+    y_ref[i] = reference(desc.data() + i * kBytes);
+    float y[64];
+    index.Project(desc.data() + i * kBytes, y);
+    for (int r = 0; r < dims; ++r) REQUIRE(y[r] == Approx(y_ref[i][r]).margin(1e-4));
+  }
+  // Exhaustive search from a fresh descriptor: every descriptor once, nearest first, each
+  // squared distance as in double precision.
+  std::vector<uint8_t> q(kBytes);
+  for (uint8_t& b : q) b = static_cast<uint8_t>(byte(rng));
+  const Eigen::VectorXd yq_ref = reference(q.data());
+  float yq[64];
+  index.Project(q.data(), yq);
+  const std::vector<Neighbor> all = index.SearchProjected(yq, count);
+  REQUIRE(all.size() == static_cast<std::size_t>(count));
+  std::vector<int> seen(count, 0);
+  for (std::size_t j = 0; j < all.size(); ++j) {
+    ++seen[all[j].index];
+    if (j > 0) {
+      REQUIRE((all[j - 1].distance2 < all[j].distance2 ||
+               (all[j - 1].distance2 == all[j].distance2 && all[j - 1].index < all[j].index)));
+    }
+    const double expected = (y_ref[all[j].index] - yq_ref).squaredNorm();
+    REQUIRE(all[j].distance2 == Approx(expected).epsilon(1e-4).margin(1e-4));
+  }
+  CHECK(std::count(seen.begin(), seen.end(), 1) == count);
+  // The k nearest of the index are the first k of the exhaustive ranking among the cells it
+  // visited: at least they are consistent with it (same distances, same order rule).
+  const std::vector<Neighbor> nn = index.Search(q.data());
+  for (const Neighbor& n : nn) {
+    const auto it =
+        std::find_if(all.begin(), all.end(), [&](const Neighbor& a) { return a.index == n.index; });
+    REQUIRE(it != all.end());
+    CHECK(it->distance2 == n.distance2);
+  }
+}
+
+TEST_CASE("descriptor index: reused search buffers give the results of fresh ones",
+          "[localization]") {
+  SyntheticDescriptors gen(19, 0.25, 0.25);
+  const int landmarks = 3000;
+  std::vector<Eigen::VectorXd> latent;
+  std::vector<uint8_t> desc(static_cast<std::size_t>(landmarks) * 2 * kBytes);
+  std::vector<uint32_t> labels;
+  for (int l = 0; l < landmarks; ++l) {
+    latent.push_back(gen.Latent());
+    for (int o = 0; o < 2; ++o) {
+      gen.Observe(latent[l], desc.data() + labels.size() * kBytes);
+      labels.push_back(l);
+    }
+  }
+  const DescriptorIndex index(TrainProjectionMatrix(desc, kBytes, labels), desc.data(), kBytes,
+                              labels.size());
+  DescriptorSearchScratch scratch;
+  std::vector<Neighbor> reused;
+  std::vector<uint8_t> q(kBytes);
+  float y[64];
+  // Compares a search on the reused scratch with one on fresh buffers, and checks that every
+  // indexed descriptor appears at most once (a cell visited twice would repeat its items).
+  auto check_search = [&](int k) {
+    index.SearchProjected(y, k, &scratch, &reused);
+    const std::vector<Neighbor> fresh = index.SearchProjected(y, k);
+    REQUIRE(reused.size() == fresh.size());
+    std::vector<uint8_t> seen(labels.size(), 0);
+    for (std::size_t j = 0; j < fresh.size(); ++j) {
+      REQUIRE(reused[j].index == fresh[j].index);
+      REQUIRE(reused[j].distance2 == fresh[j].distance2);
+      REQUIRE(seen[reused[j].index]++ == 0);
+    }
+  };
+  const int all = static_cast<int>(labels.size());
+  // An exhaustive search marks every cell "popped" with stamp 1. Then the stamp jumps to its
+  // wrap-around, passed by short searches (which overwrite few marks): the searches after it
+  // must start from cleared marks. A stale mark equal to the current stamp would make the
+  // multi-sequence traversal queue a cell twice, which an exhaustive search reveals.
+  gen.Observe(latent[0], q.data());
+  index.Project(q.data(), y);
+  check_search(all);
+  REQUIRE(scratch.search == 1u);
+  scratch.search = UINT32_MAX - 1;
+  for (int i = 0; i < 2; ++i) check_search(index.k());
+  for (int i = 0; i < 3; ++i) check_search(all);
+  CHECK(scratch.search < 10u);  // wrapped and restarted
+  // Then many queries with varying k on the same buffers.
+  for (int i = 0; i < 200; ++i) {
+    gen.Observe(latent[(i * 37) % landmarks], q.data());
+    index.Project(q.data(), y);
+    check_search(i % 10 == 0 ? all : index.k() + i % 5);
+    index.Search(q.data(), &scratch, &reused);
+    const std::vector<Neighbor> fresh_search = index.Search(q.data());
+    REQUIRE(reused.size() == fresh_search.size());
+    for (std::size_t j = 0; j < fresh_search.size(); ++j) {
+      REQUIRE(reused[j].index == fresh_search[j].index);
+    }
+  }
 }

@@ -1,6 +1,6 @@
 #include "vilma/localizer/kitti_localization.h"
 
-#include <time.h>
+#include <sys/resource.h>
 
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -8,6 +8,8 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <iomanip>
 #include <iostream>
 
 #include "localizer/synthetic_descriptors.h"
@@ -105,8 +107,11 @@ TEST_CASE("kitti localization: odd frames against a map of the even frames (real
 }
 
 // ---------------------------------------------------------------------------------------------
-// Query time against a 50k-landmark map (the issue's "<= 20 ms p50" figure). Hidden benchmark:
-//   vilma_localizer_tests "[.benchmark][loc50k]"
+// Query time against a 50k-landmark map (the issue's "<= 20 ms p50" figure, wall time). Hidden
+// benchmark: vilma_localizer_tests "[.benchmark][loc50k]" -s. It prints a table of p50/p90
+// wall and thread-CPU times of matching and pose, the index build and projection training
+// times, the load average, and a checksum of every query's matches and inliers: equal
+// checksums from two builds mean bit-identical localization results.
 // The map is synthetic (the KITTI slice gives only ~7.5k landmarks): 500 map keyframes along a
 // 500 m path, 100 landmarks each placed in front of their keyframe, each seen by that keyframe
 // and the next (2 descriptors, covisibility chain), with BRISK-like correlated descriptors (the
@@ -120,10 +125,12 @@ constexpr int kBytes = 64;
 
 using vilma::localizer::testing::BriskLikeDescriptors;
 
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
+// "/proc/loadavg" fields 1-3 (1, 5 and 15 min load averages), "?" where unavailable.
+std::string LoadAverage() {
+  std::ifstream in("/proc/loadavg");
+  std::string a, b, c;
+  if (!(in >> a >> b >> c)) return "?";
+  return a + " / " + b + " / " + c;
 }
 
 double Quantile(std::vector<double> v, double q) {
@@ -186,8 +193,20 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
   const double construct_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 
-  std::vector<double> cpu_ms, match_ms, pose_ms;
+  // Wall and thread-CPU times per stage; the load average is printed with them because on this
+  // shared 2-core machine wall - CPU is the time spent waiting for a core.
+  const std::string load_before = LoadAverage();
+  // Context switches of this thread over the queries: voluntary ones would mean the query
+  // blocks (I/O, locks, sleeps), involuntary ones that it was preempted (machine load).
+  rusage usage0{};
+  getrusage(RUSAGE_THREAD, &usage0);
+  std::vector<double> match_wall, match_cpu, pose_wall, pose_cpu, query_wall, query_cpu;
   int localized = 0;
+  std::size_t total_matches = 0, total_raw = 0, total_inliers = 0;
+  uint64_t checksum = 1469598103934665603ull;  // FNV-1a over every query's matches and inliers
+  auto hash = [&](uint64_t v) {
+    for (int b = 0; b < 8; ++b) checksum = (checksum ^ ((v >> (8 * b)) & 0xFF)) * 1099511628211ull;
+  };
   LocalizerStats stats;
   for (int q = 0; q < kQueries; ++q) {
     const int j = 5 + q * (kKeyframes - 10) / kQueries;
@@ -214,26 +233,63 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
       gen.Observe(gen.Latent(), d);
       descriptors.insert(descriptors.end(), d, d + kBytes);
     }
-    const double c0 = ThreadCpuMs();
-    const LocalizationResult r = localizer.Localize(camera, Transformation(), uv, descriptors.data());
-    cpu_ms.push_back(ThreadCpuMs() - c0);
-    match_ms.push_back(r.match_ms);
-    pose_ms.push_back(r.pose_ms);
+    const LocalizationResult r =
+        localizer.Localize(camera, Transformation(), uv, descriptors.data());
+    match_wall.push_back(r.match_ms);
+    match_cpu.push_back(r.match_cpu_ms);
+    pose_wall.push_back(r.pose_ms);
+    pose_cpu.push_back(r.pose_cpu_ms);
+    query_wall.push_back(r.match_ms + r.pose_ms);
+    query_cpu.push_back(r.match_cpu_ms + r.pose_cpu_ms);
     stats.Add(r);
+    total_raw += static_cast<std::size_t>(r.num_raw_matches);
+    total_matches += r.matches.size();
+    total_inliers += r.inliers.size();
+    hash(static_cast<uint64_t>(r.status));
+    hash(static_cast<uint64_t>(r.num_raw_matches));
+    for (const Match2D3D& m : r.matches) {
+      hash(static_cast<uint64_t>(m.keypoint));
+      hash(m.landmark);
+      hash(static_cast<uint64_t>(m.hamming));
+    }
+    for (int i : r.inliers) hash(static_cast<uint64_t>(i));
     if (r.status == LocalizationStatus::kOk &&
         (r.T_G_C.translation() - T_G_C.translation()).norm() < 0.1) {
       ++localized;
     }
   }
+  const std::string load_after = LoadAverage();
+  rusage usage1{};
+  getrusage(RUSAGE_THREAD, &usage1);
+  auto row = [&](const char* name, const std::vector<double>& wall,
+                 const std::vector<double>& cpu) {
+    std::cout << "  | " << std::left << std::setw(20) << name << std::right << std::fixed
+              << std::setprecision(2) << " | " << std::setw(7) << Quantile(wall, 0.5) << " | "
+              << std::setw(7) << Quantile(wall, 0.9) << " | " << std::setw(7) << Quantile(cpu, 0.5)
+              << " | " << std::setw(7) << Quantile(cpu, 0.9) << " |\n";
+  };
   std::cout << "50k-landmark map: " << map->num_landmarks() << " landmarks, "
-            << map->num_descriptors() << " descriptors, k = " << localizer.index().k()
-            << "\n  Localizer construction " << construct_ms << " ms (projection training "
-            << localizer.projection_train_ms() << " ms, index build "
-            << localizer.index_build_ms() << " ms)\n  query (500 keypoints): thread CPU p50 "
-            << Quantile(cpu_ms, 0.5) << " ms, p90 " << Quantile(cpu_ms, 0.9)
-            << " ms; wall match p50 " << Quantile(match_ms, 0.5) << " ms, pose p50 "
-            << Quantile(pose_ms, 0.5) << " ms\n  localized within 0.1 m: " << localized << "/"
-            << kQueries << "; " << stats.ToString() << "\n";
+            << map->num_descriptors() << " descriptors, k = " << localizer.index().k() << "\n"
+            << "  load average (1/5/15 min) before " << load_before << ", after " << load_after
+            << "; context switches in the query loop: " << usage1.ru_nivcsw - usage0.ru_nivcsw
+            << " involuntary (preempted), " << usage1.ru_nvcsw - usage0.ru_nvcsw << " voluntary"
+            << "\n  Localizer construction " << std::fixed << std::setprecision(1) << construct_ms
+            << " ms: projection training " << localizer.projection_train_ms() << " ms, index build "
+            << localizer.index_build_ms() << " ms\n"
+            << "  | " << kQueries
+            << " queries x 500 kpts  | wall p50 | wall p90 | CPU p50 | CPU p90 |"
+            << " [ms]\n";
+  row("match", match_wall, match_cpu);
+  row("pose", pose_wall, pose_cpu);
+  row("query (match + pose)", query_wall, query_cpu);
+  std::cout << "  localized within 0.1 m: " << localized << "/" << kQueries << "; "
+            << stats.ToString() << "\n  matches: raw " << total_raw << ", after covisibility "
+            << total_matches << ", inliers " << total_inliers << ", checksum " << std::hex
+            << checksum << std::dec << "\n";
+  std::cout.unsetf(std::ios::floatfield);
   CHECK(localized >= kQueries * 9 / 10);
-  CHECK(Quantile(cpu_ms, 0.5) <= 20.0);
+  // The target is wall time on the 2-core machine; CPU time alone would hide a stage that
+  // sleeps or waits.
+  CHECK(Quantile(query_cpu, 0.5) <= 20.0);
+  CHECK(Quantile(query_wall, 0.5) <= 20.0);
 }

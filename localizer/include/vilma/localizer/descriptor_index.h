@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace vilma::localizer {
@@ -59,11 +60,24 @@ struct Neighbor {
   float distance2 = 0.f;  // squared projected distance
 };
 
+// Buffers reused by the searches of one caller (one per thread: the index stays const and
+// shareable). With them a search allocates nothing once they have grown to the query's size.
+struct DescriptorSearchScratch {
+  // Per half, per word: float bits of the squared distance of the query half to the word << 32
+  // | word (integer order = order of (distance, word)); sorted lazily, nearest first.
+  std::vector<uint64_t> words[2];
+  std::vector<std::pair<float, uint32_t>> queue;  // multi-sequence heap: (lower bound, i*W + j)
+  std::vector<uint32_t> popped;  // (i*W + j) -> number of the search that popped it
+  uint32_t search = 0;           // stamp of the current search (no per-search clearing)
+  // Candidates as (squared distance bits << 32 | descriptor index): ordered like Neighbors.
+  std::vector<uint64_t> candidates;
+};
+
 class DescriptorIndex {
  public:
   DescriptorIndex() = default;
   // Projects and indexes `count` descriptors of `bytes` bytes. `projection` is D x (8 bytes)
-  // with D even. Throws std::invalid_argument on inconsistent sizes.
+  // with D even and <= 64. Throws std::invalid_argument on inconsistent sizes.
   DescriptorIndex(const Eigen::MatrixXf& projection, const uint8_t* descriptors, int bytes,
                   std::size_t count, const DescriptorIndexOptions& options = {});
 
@@ -72,11 +86,16 @@ class DescriptorIndex {
   int k() const { return k_; }
   std::size_t size() const { return count_; }
 
-  // Up to k() nearest indexed descriptors in the projected space, nearest first, among the
-  // candidates of the cells visited in increasing lower-bound distance (multi-sequence
-  // algorithm). Thread-safe (const, no shared scratch).
+  // Up to k() nearest indexed descriptors in the projected space, nearest first (ties: lower
+  // index), among the candidates of the cells visited in increasing lower-bound distance
+  // (multi-sequence algorithm). Thread-safe (const); the scratch overloads reuse the caller's
+  // buffers and write into *neighbors (cleared first), the others allocate.
   std::vector<Neighbor> Search(const uint8_t* descriptor) const;
   std::vector<Neighbor> SearchProjected(const float* projected, int k) const;
+  void Search(const uint8_t* descriptor, DescriptorSearchScratch* scratch,
+              std::vector<Neighbor>* neighbors) const;
+  void SearchProjected(const float* projected, int k, DescriptorSearchScratch* scratch,
+                       std::vector<Neighbor>* neighbors) const;
 
  private:
   Eigen::MatrixXf projection_;
@@ -88,11 +107,17 @@ class DescriptorIndex {
   int half_ = 0;
   int k_ = 0;
   int words_ = 0;
-  Eigen::MatrixXf projected_;    // D x count
   Eigen::MatrixXf codebook_[2];  // half x words
-  // Cell c = w0 * words + w1: items cell_items_[cell_begin_[c] .. cell_begin_[c + 1]).
+  // codebook_[h] transposed (words x half, column-major): the distances of a query half to all
+  // words are then a loop over dimensions of contiguous, vectorizable rows of `words` floats.
+  Eigen::MatrixXf codebook_t_[2];
+  // Cell c = w0 * words + w1: slots cell_begin_[c] .. cell_begin_[c + 1]); slot s holds the
+  // descriptor cell_items_[s] and its projection cell_projected_.col(s). Storing the projected
+  // vectors in slot (cell) order makes a search read each visited cell as one contiguous run
+  // instead of gathering scattered columns of a 100k x D array.
   std::vector<uint32_t> cell_begin_;
   std::vector<uint32_t> cell_items_;
+  Eigen::MatrixXf cell_projected_;  // D x count, by slot
 };
 
 }  // namespace vilma::localizer

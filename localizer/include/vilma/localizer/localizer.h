@@ -75,6 +75,10 @@ struct LocalizationResult {
   double rms_reprojection_px = 0.0;
   double match_ms = 0.0;           // retrieval + Hamming + covisibility [ms]
   double pose_ms = 0.0;            // RANSAC + refinement [ms]
+  // The same two stages in CPU time of the calling thread [ms]: wall minus these is the time
+  // the thread waited for a core (the machine's load), not work.
+  double match_cpu_ms = 0.0;
+  double pose_cpu_ms = 0.0;
 };
 
 struct LocalizerStats {
