@@ -8,6 +8,20 @@
 #include "vilma/drivers/lcm_log.h"
 
 namespace vilma {
+namespace {
+
+// The pose of a message (pose_t or localization_t fields); false when it is not finite or the
+// quaternion is not a unit one (a malformed message).
+bool PoseOf(const double position[3], const double orientation_wxyz[4], Transformation* T) {
+  const Eigen::Vector3d p(position[0], position[1], position[2]);
+  const Eigen::Quaterniond q(orientation_wxyz[0], orientation_wxyz[1], orientation_wxyz[2],
+                             orientation_wxyz[3]);
+  if (!p.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3) return false;
+  *T = Transformation(q, p);
+  return true;
+}
+
+}  // namespace
 
 Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
                        bool include_not_valid, PoseLogStats* stats) {
@@ -25,10 +39,8 @@ Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
       ++s.malformed;
       continue;
     }
-    const Eigen::Vector3d p(msg.position[0], msg.position[1], msg.position[2]);
-    const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                               msg.orientation[3]);
-    if (!p.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3) {
+    Transformation T;
+    if (!PoseOf(msg.position, msg.orientation, &T)) {
       ++s.malformed;
       continue;
     }
@@ -37,7 +49,7 @@ Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
       ++s.not_valid;
       continue;
     }
-    trajectory.Add(UtimeToNs(msg.utime), Transformation(q, p));
+    trajectory.Add(UtimeToNs(msg.utime), T);
   }
   return trajectory;
 }
@@ -78,15 +90,13 @@ Trajectory ReadLocalizationLog(const std::string& path, const std::string& chann
     ++s.attempts;
     if (msg.decision == "accepted") ++s.accepted;
     if (msg.status != "ok") continue;
-    const Eigen::Vector3d p(msg.position[0], msg.position[1], msg.position[2]);
-    const Eigen::Quaterniond q(msg.orientation[0], msg.orientation[1], msg.orientation[2],
-                               msg.orientation[3]);
-    if (!p.allFinite() || !q.coeffs().allFinite() || std::abs(q.norm() - 1.0) > 1e-3) {
+    Transformation T;
+    if (!PoseOf(msg.position, msg.orientation, &T)) {
       ++s.malformed;
       continue;
     }
     ++s.with_pose;
-    trajectory.Add(UtimeToNs(msg.utime), Transformation(q, p));
+    trajectory.Add(UtimeToNs(msg.utime), T);
   }
   return trajectory;
 }
