@@ -82,13 +82,15 @@ const char* AlignmentTypeName(AlignmentType type) {
       return "none";
     case AlignmentType::kFirst:
       return "first";
+    case AlignmentType::kFixed:
+      return "fixed";
   }
   return "unknown";
 }
 
 bool ParseAlignmentType(const std::string& name, AlignmentType* type) {
   for (AlignmentType t : {AlignmentType::kPosYaw, AlignmentType::kSe3, AlignmentType::kSim3,
-                          AlignmentType::kNone, AlignmentType::kFirst}) {
+                          AlignmentType::kNone, AlignmentType::kFirst, AlignmentType::kFixed}) {
     if (name == AlignmentTypeName(t)) {
       *type = t;
       return true;
@@ -110,6 +112,7 @@ std::size_t MinimumPosesForAlignment(AlignmentType type) {
     case AlignmentType::kSim3:
       return 3;
     case AlignmentType::kNone:
+    case AlignmentType::kFixed:
       return 0;
     case AlignmentType::kFirst:
       return 1;
@@ -246,6 +249,9 @@ Alignment AlignPositions(AlignmentType type, const std::vector<Eigen::Vector3d>&
     case AlignmentType::kFirst:
       throw std::invalid_argument(
           "AlignPositions: alignment 'first' needs orientations, use AlignFirstPose");
+    case AlignmentType::kFixed:
+      throw std::invalid_argument(
+          "AlignPositions: alignment 'fixed' is given, not fitted (EvalOptions::fixed_alignment)");
   }
   return Alignment{};
 }
@@ -289,6 +295,16 @@ std::string EvalOptions::Validate() const {
   }
   for (double d : within_m) {
     if (!std::isfinite(d) || d < 0.0) return "within_m: expected distances >= 0 [m]";
+  }
+  if (alignment == AlignmentType::kFixed) {
+    const double s = fixed_alignment.scale;
+    if (!std::isfinite(s) || s <= 0.0) return "fixed_alignment.scale: expected a finite value > 0";
+    if (!fixed_alignment.T_G_E.translation().allFinite()) {
+      return "fixed_alignment.translation: expected finite values [m]";
+    }
+    if (!fixed_alignment.T_G_E.rotation().coeffs().allFinite()) {
+      return "fixed_alignment.rotation: expected a finite quaternion";
+    }
   }
   return "";
 }
@@ -377,7 +393,10 @@ EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est,
     p_E.push_back(est.T_W_B[assoc.est_index[k]].translation());
   }
   try {
-    if (options.alignment == AlignmentType::kFirst) {
+    if (options.alignment == AlignmentType::kFixed) {
+      result.alignment = options.fixed_alignment;
+      result.alignment.type = AlignmentType::kFixed;
+    } else if (options.alignment == AlignmentType::kFirst) {
       // The first matched pose in association order, which is estimate time order (or index).
       result.alignment = AlignFirstPose(gt.T_W_B[assoc.gt_index.front()],
                                         est.T_W_B[assoc.est_index.front()]);

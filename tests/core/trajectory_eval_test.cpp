@@ -294,6 +294,63 @@ TEST_CASE("align first uses the first MATCHED pose; one match is enough", "[eval
                   std::invalid_argument);
 }
 
+TEST_CASE("align fixed: the given S_G_E is applied as is, nothing fitted", "[eval]") {
+  CHECK(MinimumPosesForAlignment(AlignmentType::kFixed) == 0);
+  AlignmentType parsed = AlignmentType::kNone;
+  CHECK(ParseAlignmentType("fixed", &parsed));
+  CHECK(parsed == AlignmentType::kFixed);
+  CHECK(std::string(AlignmentTypeName(AlignmentType::kFixed)) == "fixed");
+
+  const Trajectory gt = MakeLoop();
+  const Transformation T_G_E(Rz(0.8) * Rx(0.01), Eigen::Vector3d(1.5, -2.0, 0.3));
+  const double s = 1.25;
+  const Trajectory est = Transform(gt, T_G_E.inverse(), 1.0);
+  EvalOptions o = Options(AlignmentType::kFixed);
+  // The exact transform: zero error, and the given transform comes back unchanged.
+  o.fixed_alignment.T_G_E = T_G_E;
+  const EvalResult exact = EvaluateTrajectory(gt, est, o);
+  CHECK(exact.alignment.type == AlignmentType::kFixed);
+  CHECK(exact.alignment.scale == 1.0);
+  CHECK(AngleBetween(exact.alignment.T_G_E.rotation(), T_G_E.rotation()) < 1e-12);
+  CHECK(exact.ate.translation_m.max < 1e-12);
+  CHECK(exact.ate.rotation_deg.max < 1e-6);
+
+  // A transform off by a known translation d: nothing is fitted, so every pose is off by
+  // exactly |d| (a fit would remove it: se3 gives ~0).
+  const Eigen::Vector3d d(0.3, -0.4, 0.0);
+  o.fixed_alignment.T_G_E = Transformation(T_G_E.rotation(), T_G_E.translation() + d);
+  const EvalResult shifted = EvaluateTrajectory(gt, est, o);
+  CHECK(shifted.ate.translation_m.min == Approx(0.5).epsilon(1e-12));
+  CHECK(shifted.ate.translation_m.max == Approx(0.5).epsilon(1e-12));
+  CHECK(EvaluateTrajectory(gt, est, Options(AlignmentType::kSe3)).ate.translation_m.max < 1e-9);
+
+  // The scale is applied too: p_G = s R p_E + t with p_E from a world scaled by 1/s.
+  const Trajectory scaled = Transform(gt, T_G_E.inverse(), 1.0 / s);
+  o.fixed_alignment.scale = s;
+  // Transform() scales after rotating: p_E = (1/s)(R_E_G p_G) + t_E_G, so S_G_E has the
+  // translation -s R_G_E t_E_G.
+  const Transformation T_E_G = T_G_E.inverse();
+  o.fixed_alignment.T_G_E =
+      Transformation(T_G_E.rotation(), -s * (T_G_E.rotation() * T_E_G.translation()));
+  const EvalResult with_scale = EvaluateTrajectory(gt, scaled, o);
+  CHECK(with_scale.alignment.scale == s);
+  CHECK(with_scale.ate.translation_m.max < 1e-9);
+
+  // Invalid given transforms are option errors.
+  o.fixed_alignment.scale = 0.0;
+  CHECK_FALSE(o.Validate().empty());
+  CHECK_THROWS_AS(EvaluateTrajectory(gt, scaled, o), std::invalid_argument);
+  o.fixed_alignment.scale = 1.0;
+  o.fixed_alignment.T_G_E = Transformation(Rz(0.1), Eigen::Vector3d(std::nan(""), 0.0, 0.0));
+  CHECK(o.Validate() == "fixed_alignment.translation: expected finite values [m]");
+  // The same values are fine for the other alignments, which do not use them.
+  o.alignment = AlignmentType::kPosYaw;
+  CHECK(o.Validate().empty());
+  CHECK_THROWS_AS(
+      AlignPositions(AlignmentType::kFixed, {Eigen::Vector3d::Zero()}, {Eigen::Vector3d::Zero()}),
+      std::invalid_argument);
+}
+
 TEST_CASE("within counts: known per-pose errors, the boundary is within", "[eval]") {
   const std::vector<WithinCount> c =
       CountWithin({0.1, 0.5, std::nextafter(0.5, 1.0), 1.0, 2.0}, {0.5, 0.0, 1.0, 10.0});

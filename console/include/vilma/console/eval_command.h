@@ -1,12 +1,14 @@
 // `vilma eval`: absolute and relative trajectory error of an estimate against ground truth.
 //
-//   vilma eval --gt GT --est EST [--align posyaw|se3|sim3|none|first]
+//   vilma eval --gt GT --est EST [--align posyaw|se3|sim3|none|first | --align-from MAP.json]
 //              [--segments 10,20,30,40,50] [--within 0.5,1] [--max-dt 0.01] [--json OUT.json]
 //              [--plot OUT.png]
 //
 // GT and EST may each be TUM, EuRoC CSV or KITTI (told apart by content). The report goes to
 // stdout; --json writes the same numbers with the stable schema of docs/evaluation.md; --plot
-// renders a PNG through scripts/plot_trajectory.py (python3 + matplotlib).
+// renders a PNG through scripts/plot_trajectory.py (python3 + matplotlib). --align-from applies
+// the alignment_transform of an earlier --json output instead of fitting one (multi-session
+// evaluation in a map frame: every session with the map session's transform).
 #pragma once
 
 #include <ostream>
@@ -23,6 +25,9 @@ struct EvalCommandOptions {
   std::string gt_path;    // --gt, required
   std::string est_path;   // --est, required
   EvalOptions eval;       // --align, --segments, --within, --max-dt
+  // --align-from, empty: none. Sets eval.alignment to kFixed; RunEvalCommand reads the file
+  // into eval.fixed_alignment.
+  std::string align_from_path;
   std::string json_path;  // --json, empty: no JSON
   std::string plot_path;  // --plot, empty: no plot
   bool help = false;      // --help / -h
@@ -48,6 +53,14 @@ void WriteEvalJson(std::ostream& out, const EvalCommandOptions& options, const T
 // t_s,gt_x,gt_y,gt_z,est_x,est_y,est_z,translation_error_m,rotation_error_deg (t_s relative to
 // the first matched pose; index when there are no time stamps).
 void WritePlotCsv(std::ostream& out, const EvalResult& result);
+
+// The alignment_transform (S_G_E: scale, translation_m, quaternion_wxyz) of a `vilma eval
+// --json` file (schema_version 1), as an Alignment of type kFixed. Strict JSON (RFC 8259, no
+// duplicate keys); throws InputError naming the file, the field and the expectation (missing,
+// wrong type, wrong length, scale <= 0, quaternion norm off 1 by more than 1e-6). The
+// quaternion is normalized.
+Alignment ParseAlignmentJson(const std::string& text, const std::string& path);
+Alignment ReadAlignmentJson(const std::string& path);
 
 // The whole command; returns kExitOk, kExitInputError or kExitUsage.
 int RunEvalCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);

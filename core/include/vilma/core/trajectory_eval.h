@@ -7,7 +7,8 @@
 //      max_dt, nearest first, each pose used at most once), or by index without stamps.
 //   2. Align: find S_G_E (rotation R, translation t, scale s) mapping the estimate's world E
 //      onto the ground truth's world G from ALL matched positions: p_G = s R p_E + t; or, for
-//      kFirst, the yaw + translation that puts the FIRST matched pose onto its ground truth.
+//      kFirst, the yaw + translation that puts the FIRST matched pose onto its ground truth;
+//      or, for kFixed, a given S_G_E (e.g. written by an earlier evaluation), nothing fitted.
 //   3. ATE: per matched pose, |p_gt - p_est'| [m] and angle(R_gt^T R_est') [deg] of the aligned
 //      estimate; RMSE, mean, median, max.
 //   4. RPE: distance-based segments along the ground-truth path; per start pose i the first pose
@@ -61,8 +62,10 @@ enum class AlignmentType {
   kSim3,    // 7-DoF: Umeyama with scale; monocular VO
   kNone,    // identity
   kFirst,   // 4-DoF from the first matched pose only: VIO started at a known pose
+  kFixed,   // given S_G_E (EvalOptions::fixed_alignment), nothing fitted to the estimate:
+            // sessions localized in a map frame, evaluated with the map session's alignment
 };
-// "posyaw", "se3", "sim3", "none", "first".
+// "posyaw", "se3", "sim3", "none", "first", "fixed".
 const char* AlignmentTypeName(AlignmentType type);
 // Parses the names above; false for anything else.
 bool ParseAlignmentType(const std::string& name, AlignmentType* type);
@@ -77,8 +80,8 @@ struct Alignment {
   Transformation Apply(const Transformation& T_E_B) const;
 };
 
-// Minimum number of matched positions each alignment needs: none 0 (but evaluation needs 1),
-// posyaw 2, se3 and sim3 3 (non-collinear for a unique rotation), first 1.
+// Minimum number of matched positions each alignment needs: none and fixed 0 (but evaluation
+// needs 1), posyaw 2, se3 and sim3 3 (non-collinear for a unique rotation), first 1.
 std::size_t MinimumPosesForAlignment(AlignmentType type);
 
 // Umeyama 1991 ("Least-squares estimation of transformation parameters between two point
@@ -137,6 +140,9 @@ struct EvalOptions {
   // Distances D [m] (each finite, >= 0) for the "within" counts: matched poses whose ATE
   // translation error is <= D. Empty: none computed.
   std::vector<double> within_m;
+  // The S_G_E applied as is when alignment == kFixed (its type is ignored: the result's
+  // alignment has type kFixed); scale finite > 0, translation finite. Unused otherwise.
+  Alignment fixed_alignment;
   std::string Validate() const;
 };
 
