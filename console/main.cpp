@@ -11,6 +11,8 @@
 #include "vilma/console/command.h"
 #include "vilma/console/eval_command.h"
 #include "vilma/console/kitti_command.h"
+#include "vilma/console/localize_command.h"
+#include "vilma/console/locmap_command.h"
 #include "vilma/console/rig_command.h"
 #include "vilma/console/vio_command.h"
 
@@ -27,8 +29,12 @@ struct Subcommand {
 const Subcommand kSubcommands[] = {
     {"eval", "trajectory error (ATE, RPE) of an estimate against ground truth",
      &vilma::console::RunEvalCommand},
+    {"localize", "offline map check: localize every Nth frame of a dataset against a map",
+     &vilma::console::RunLocalizeCommand},
     {"localize-kitti", "localization check on a KITTI stereo slice (map: even frames, query: odd)",
      &vilma::console::RunKittiCommand},
+    {"locmap", "localization maps: build a .vlocmap from a VI-map folder, print a file's summary",
+     &vilma::console::RunLocmapCommand},
     {"rig", "sensor rig files: import EuRoC/Kalibr calibrations, check a rig YAML",
      &vilma::console::RunRigCommand},
     {"vio", "visual-inertial odometry (ROVIO-style filter) over an ASL dataset folder",
