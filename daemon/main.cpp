@@ -144,13 +144,8 @@ int main(int argc, char** argv) {
       options.localization.map = loc_map;
     }
     options.fault_stall_filter_after = stall_after;
-    const std::string error = options.Validate();
-    if (!error.empty()) {
-      const std::size_t colon = error.find(": ");
-      throw vilma::InputError(vilma::FormatInputError(
-          config_path.empty() ? "command line" : config_path, error.substr(0, colon),
-          error.substr(colon + 2)));
-    }
+    vilma::ThrowIfInvalid(options.Validate(),
+                          config_path.empty() ? "command line" : config_path);
     if (options.rig.empty()) {
       throw vilma::InputError("no sensor rig: give --rig FILE (or 'rig' in --config)");
     }

@@ -167,6 +167,12 @@ YamlNode YamlNode::Child(const std::string& key) const {
   return YamlNode(child, file_, PathOf(key));
 }
 
+YamlNode YamlNode::MapChild(const std::string& key) const {
+  const YamlNode child = Child(key);
+  if (!child.IsMap()) Fail(key, "a map");
+  return child;
+}
+
 std::vector<YamlNode> YamlNode::Elements() const {
   if (!node_.IsSequence()) Fail("", "a list, got " + Describe(node_));
   std::vector<YamlNode> out;

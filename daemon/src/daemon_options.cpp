@@ -161,8 +161,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
     if (!o.estimator_file.empty()) o.estimator = estimator::LoadFilterOptions(o.estimator_file);
   }
 
-  const YamlNode channels = root.Child("channels");
-  if (!channels.IsMap()) root.Fail("channels", "a map");
+  const YamlNode channels = root.MapChild("channels");
   const YamlNode cameras = channels.Child("cameras");
   if (!cameras.IsSequence()) channels.Fail("cameras", "a list of channel names");
   o.channels.cameras.clear();
@@ -177,8 +176,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.channels.localization = channels.Get<std::string>("localization");
   channels.CheckNoUnknownKeys();
 
-  const YamlNode queues = root.Child("queues");
-  if (!queues.IsMap()) root.Fail("queues", "a map");
+  const YamlNode queues = root.MapChild("queues");
   o.queues.input_capacity = queues.Get<int>("input_capacity");
   o.queues.filter_capacity = queues.Get<int>("filter_capacity");
   o.queues.output_capacity = queues.Get<int>("output_capacity");
@@ -186,8 +184,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.queues.max_frames_in_flight = queues.Get<int>("max_frames_in_flight");
   queues.CheckNoUnknownKeys();
 
-  const YamlNode sync = root.Child("sync");
-  if (!sync.IsMap()) root.Fail("sync", "a map");
+  const YamlNode sync = root.MapChild("sync");
   o.sync.frame_grouping_tolerance_ns = sync.Get<int64_t>("frame_grouping_tolerance_ns");
   o.sync.incomplete_frame_timeout_ns = sync.Get<int64_t>("incomplete_frame_timeout_ns");
   o.sync.max_imu_wait_ns = sync.Get<int64_t>("max_imu_wait_ns");
@@ -196,8 +193,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.sync.max_pending_frames = sync.Get<int>("max_pending_frames");
   sync.CheckNoUnknownKeys();
 
-  const YamlNode map_node = root.Child("mapping");
-  if (!map_node.IsMap()) root.Fail("mapping", "a map");
+  const YamlNode map_node = root.MapChild("mapping");
   o.mapping.enabled = map_node.Get<bool>("enabled");
   // map_builder: a file name ("" = defaults) or the options inline.
   const YAML::Node builder = map_node.raw()["map_builder"];
@@ -218,8 +214,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.mapping.save_dir = Resolve(root.file(), map_node.Get<std::string>("save_dir"));
   o.mapping.queue_capacity = map_node.Get<int>("queue_capacity");
   o.mapping.max_frames_in_flight = map_node.Get<int>("max_frames_in_flight");
-  const YamlNode stream = map_node.Child("stream");
-  if (!stream.IsMap()) map_node.Fail("stream", "a map");
+  const YamlNode stream = map_node.MapChild("stream");
   o.mapping.stream.enabled = stream.Get<bool>("enabled");
   o.mapping.stream.lcm_url = stream.Get<std::string>("lcm_url");
   o.mapping.stream.chunk_channel = stream.Get<std::string>("chunk_channel");
@@ -232,8 +227,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   stream.CheckNoUnknownKeys();
   map_node.CheckNoUnknownKeys();
 
-  const YamlNode loc = root.Child("localization");
-  if (!loc.IsMap()) root.Fail("localization", "a map");
+  const YamlNode loc = root.MapChild("localization");
   o.localization.enabled = loc.Get<bool>("enabled");
   o.localization.map = Resolve(root.file(), loc.Get<std::string>("map"));
   o.localization.localizer_file = Resolve(root.file(), loc.Get<std::string>("localizer"));
@@ -258,11 +252,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   loc.CheckNoUnknownKeys();
 
   root.CheckNoUnknownKeys();
-  const std::string error = o.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    throw InputError(FormatInputError(root.file(), error.substr(0, colon), error.substr(colon + 2)));
-  }
+  ThrowIfInvalid(o.Validate(), root.file());
   return o;
 }
 

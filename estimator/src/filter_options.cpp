@@ -195,9 +195,7 @@ FilterOptions ReadFilterOptions(const YamlNode& root) {
       }
       root.Fail(parent, "a map");
     }();
-    YamlNode child = parent_node.Child(key);
-    if (!child.IsMap()) parent_node.Fail(key, "a map");
-    sections.emplace_back(name, child);
+    sections.emplace_back(name, parent_node.MapChild(key));
     return sections.back().second;
   };
   if (!root.IsMap()) root.Fail("", "a map of filter options");
@@ -208,12 +206,7 @@ FilterOptions ReadFilterOptions(const YamlNode& root) {
     field = node.Get<T>(key);
   });
   for (const auto& s : sections) s.second.CheckNoUnknownKeys();
-  const std::string error = options.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    throw InputError(FormatInputError(root.file(), error.substr(0, colon),
-                                      error.substr(colon + 2)));
-  }
+  ThrowIfInvalid(options.Validate(), root.file());
   return options;
 }
 

@@ -19,12 +19,7 @@ double Yaw(const Eigen::Quaterniond& q_W_I) {
 
 VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions& options)
     : rig_(rig), options_(options) {
-  const std::string error = options.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    throw InputError(FormatInputError("filter options", error.substr(0, colon),
-                                      error.substr(colon + 2)));
-  }
+  ThrowIfInvalid(options.Validate(), "filter options");
   if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
     throw InputError(FormatInputError("sensor rig", "cameras",
                                       "a camera with index " + std::to_string(camera_index)));

@@ -119,9 +119,7 @@ KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& root) {
   KeyframeFeatureOptions options;
   std::vector<YamlNode> sections;
   for (const char* name : kSections) {
-    YamlNode child = root.Child(name);
-    if (!child.IsMap()) root.Fail(name, "a map");
-    sections.push_back(child);
+    sections.push_back(root.MapChild(name));
   }
   VisitOptions(options, [&](const char* section, const char* key, auto& field) {
     using T = std::decay_t<decltype(field)>;
@@ -131,13 +129,7 @@ KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& root) {
   });
   root.CheckNoUnknownKeys();
   for (const auto& s : sections) s.CheckNoUnknownKeys();
-  const std::string error = options.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    const std::string field = error.substr(0, colon);
-    const std::string path = root.key_path().empty() ? field : root.key_path() + "." + field;
-    throw InputError(FormatInputError(root.file(), path, error.substr(colon + 2)));
-  }
+  root.CheckValid(options.Validate());
   return options;
 }
 

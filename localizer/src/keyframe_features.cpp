@@ -89,12 +89,7 @@ std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoin
 }
 
 FeatureExtractor::FeatureExtractor(const KeyframeFeatureOptions& options) : options_(options) {
-  const std::string error = options.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    throw InputError(FormatInputError("keyframe feature options", error.substr(0, colon),
-                                      error.substr(colon + 2)));
-  }
+  ThrowIfInvalid(options.Validate(), "keyframe feature options");
   const DetectorOptions& d = options.detector;
   if (d.type == "orb") {
     // ORB keeps `nfeatures` over its pyramid by Harris score; ask for a few times the final

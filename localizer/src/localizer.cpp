@@ -122,11 +122,7 @@ LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::
     n.CheckNoUnknownKeys();
   }
   root.CheckNoUnknownKeys();
-  const std::string error = o.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    throw InputError(FormatInputError(source, error.substr(0, colon), error.substr(colon + 2)));
-  }
+  ThrowIfInvalid(o.Validate(), source);
   return o;
 }
 

@@ -62,12 +62,7 @@ std::string MapBuilderStats::ToString(const std::string& indent) const {
 MapBuilder::MapBuilder(const SensorRig& rig, const MapBuilderOptions& options,
                        uint64_t mission_seed, const std::string& mission_name)
     : rig_(rig), options_(options), ids_(0) {
-  const std::string error = options_.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    throw InputError(
-        FormatInputError("map builder options", error.substr(0, colon), error.substr(colon + 2)));
-  }
+  ThrowIfInvalid(options_.Validate(), "map builder options");
   if (rig_.cameras.empty()) {
     throw InputError(FormatInputError("rig", "cameras", "at least one camera"));
   }

@@ -83,14 +83,12 @@ MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {
     }
   }
   o.features = localizer::ReadKeyframeFeatureOptions(root.Child("features"));
-  const YamlNode t = root.Child("triangulation");
-  if (!t.IsMap()) root.Fail("triangulation", "a map");
+  const YamlNode t = root.MapChild("triangulation");
   o.triangulation.max_iterations = t.Get<int>("max_iterations");
   o.triangulation.convergence_step_m = t.Get<double>("convergence_step_m");
   o.triangulation.keypoint_sigma_px = t.Get<double>("keypoint_sigma_px");
   t.CheckNoUnknownKeys();
-  const YamlNode q = root.Child("landmark_quality");
-  if (!q.IsMap()) root.Fail("landmark_quality", "a map");
+  const YamlNode q = root.MapChild("landmark_quality");
   o.landmark_quality.min_observers = q.Get<int>("min_observers");
   o.landmark_quality.min_observation_angle_deg = q.Get<double>("min_observation_angle_deg");
   o.landmark_quality.min_distance_m = q.Get<double>("min_distance_m");
@@ -98,13 +96,7 @@ MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {
   o.landmark_quality.max_reprojection_error_px = q.Get<double>("max_reprojection_error_px");
   q.CheckNoUnknownKeys();
   root.CheckNoUnknownKeys();
-  const std::string error = o.Validate();
-  if (!error.empty()) {
-    const std::size_t colon = error.find(": ");
-    const std::string field = error.substr(0, colon);
-    const std::string path = root.key_path().empty() ? field : root.key_path() + "." + field;
-    throw InputError(FormatInputError(root.file(), path, error.substr(colon + 2)));
-  }
+  root.CheckValid(o.Validate());
   return o;
 }
 

@@ -49,5 +49,52 @@ TEST_CASE("Non-finite numbers are rejected", "[yaml]") {
   CHECK_THROWS_WITH(root.Get<double>("x"), Catch::Contains("finite"));
 }
 
+TEST_CASE("MapChild returns a map section and names the key otherwise", "[yaml]") {
+  const YamlNode root = YamlNode::LoadString(
+      "outer: {inner: {x: 1}, list: [1, 2], scalar: 3}\n", "opts.yaml");
+  const YamlNode outer = root.MapChild("outer");
+  const YamlNode inner = outer.MapChild("inner");
+  CHECK(inner.key_path() == "outer.inner");
+  CHECK(inner.Get<int>("x") == 1);
+  inner.CheckNoUnknownKeys();
+  CHECK_THROWS_AS(outer.MapChild("list"), InputError);
+  CHECK_THROWS_WITH(outer.MapChild("list"), "opts.yaml: outer.list: a map");
+  // Missing and scalar children keep Child()'s messages.
+  CHECK_THROWS_WITH(outer.MapChild("nope"), "opts.yaml: outer.nope: a required section");
+  CHECK_THROWS_WITH(outer.MapChild("scalar"),
+                    "opts.yaml: outer.scalar: a map or a list, got '3'");
+  // MapChild counts as reading the key.
+  CHECK_NOTHROW(root.CheckNoUnknownKeys());
+}
+
+TEST_CASE("ThrowIfInvalid turns a Validate() message into a located InputError", "[yaml]") {
+  CHECK_NOTHROW(ThrowIfInvalid("", "opts.yaml"));
+  CHECK_NOTHROW(ThrowIfInvalid("", "opts.yaml", "section"));
+  CHECK_THROWS_AS(ThrowIfInvalid("rate_hz: expected > 0", "opts.yaml"), InputError);
+  CHECK_THROWS_WITH(ThrowIfInvalid("rate_hz: expected > 0", "opts.yaml"),
+                    "opts.yaml: rate_hz: expected > 0");
+  CHECK_THROWS_WITH(ThrowIfInvalid("ransac.seed: expected >= 0", "filter options"),
+                    "filter options: ransac.seed: expected >= 0");
+  CHECK_THROWS_WITH(ThrowIfInvalid("rate_hz: expected > 0", "opts.yaml", "mapping.builder"),
+                    "opts.yaml: mapping.builder.rate_hz: expected > 0");
+  // The field ends at the first ": ", later ones belong to the expectation.
+  CHECK_THROWS_WITH(ThrowIfInvalid("channels.imu: channel 'x' has 'x': expected A-Z", "d.yaml"),
+                    "d.yaml: channels.imu: channel 'x' has 'x': expected A-Z");
+  // A message without a field is all expectation.
+  CHECK_THROWS_WITH(ThrowIfInvalid("no field here", "d.yaml"), "d.yaml: no field here");
+  CHECK_THROWS_WITH(ThrowIfInvalid("no field here", "d.yaml", "sec"), "d.yaml: sec: no field here");
+}
+
+TEST_CASE("CheckValid names the node's file and key path", "[yaml]") {
+  const YamlNode root = YamlNode::LoadString("builder: {features: {a: 1}}\n", "daemon.yaml");
+  CHECK_NOTHROW(root.CheckValid(""));
+  CHECK_THROWS_WITH(root.CheckValid("rate_hz: expected > 0"),
+                    "daemon.yaml: rate_hz: expected > 0");
+  const YamlNode features = root.MapChild("builder").MapChild("features");
+  CHECK_THROWS_AS(features.CheckValid("detector.fast_threshold: expected > 0"), InputError);
+  CHECK_THROWS_WITH(features.CheckValid("detector.fast_threshold: expected > 0"),
+                    "daemon.yaml: builder.features.detector.fast_threshold: expected > 0");
+}
+
 }  // namespace
 }  // namespace vilma

@@ -47,11 +47,18 @@ class YamlNode {
 
   // Required map or sequence child.
   YamlNode Child(const std::string& key) const;
+  // Required child that must be a map (an options section): "file: path.key: a map" otherwise.
+  YamlNode MapChild(const std::string& key) const;
   // Elements of this node, which must be a sequence.
   std::vector<YamlNode> Elements() const;
 
   // Throws InputError naming the first key of this map that no Get/Has/Child call asked for.
   void CheckNoUnknownKeys() const;
+  // ThrowIfInvalid (error.h) for options read from this node: a non-empty Validate() message
+  // "field: expectation" becomes "file: key_path.field: expectation".
+  void CheckValid(const std::string& validate_error) const {
+    ThrowIfInvalid(validate_error, file_, key_path_);
+  }
 
   // Throws InputError "file: key_path.key: expected ..." (key may be empty: this node).
   [[noreturn]] void Fail(const std::string& key, const std::string& expectation) const;
