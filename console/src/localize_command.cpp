@@ -20,9 +20,6 @@
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
 
-#ifndef VILMA_SOURCE_DIR
-#define VILMA_SOURCE_DIR "."
-#endif
 
 namespace vilma::console {
 namespace {
@@ -184,14 +181,6 @@ std::string Percent(int n, int d) {
 
 }  // namespace
 
-std::string DefaultLocalizationFeaturesPath() {
-  const char* env = std::getenv("VILMA_CONFIG_DIR");
-  const std::string dir = env != nullptr && env[0] != '\0'
-                              ? std::string(env)
-                              : std::string(VILMA_SOURCE_DIR) + "/config";
-  return dir + "/localization_features.yaml";
-}
-
 LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
   LocalizeCommandOptions o;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -282,9 +271,9 @@ void PrintLocalizeHelp(std::ostream& out) {
          "                   EuRoC sensor.yaml files of DATASET)\n"
          "  --config FILE    localizer options (config/localizer.yaml format; default: the\n"
          "                   built-in defaults; the `map` section applies to VI-map folders)\n"
-         "  --features FILE  query keyframe features (strict, every key; default:\n"
-         "                   config/localization_features.yaml, vilma-estimatord's profile;\n"
-         "                   VILMA_CONFIG_DIR overrides the config folder)\n"
+         "  --features FILE  query keyframe features (strict, every key, like\n"
+         "                   config/keyframe_features.yaml; default: vilma-estimatord's\n"
+         "                   built-in query profile = config/localization_features.yaml)\n"
          "  --out FILE       CSV, one row per query (written atomically)\n"
          "  --quiet          no per-query lines\n"
          "  -h, --help       this text\n"
@@ -311,15 +300,11 @@ int RunLocalizeCommand(const std::vector<std::string>& args, std::ostream& out, 
         o.config_path.empty() ? localizer::LocalizerOptions()
                               : localizer::LoadLocalizerOptions(o.config_path);
     const std::string features_path =
-        o.features_path.empty() ? DefaultLocalizationFeaturesPath() : o.features_path;
-    std::error_code ec;
-    if (o.features_path.empty() && !fs::is_regular_file(features_path, ec)) {
-      throw InputError(FormatInputError(
-          features_path, "--features",
-          "the query feature profile (config/localization_features.yaml); pass --features FILE"));
-    }
+        o.features_path.empty() ? std::string("built-in query profile") : o.features_path;
     const localizer::KeyframeFeatureOptions features =
-        localizer::LoadKeyframeFeatureOptions(features_path);
+        o.features_path.empty() ? localizer::LocalizationQueryFeatureOptions()
+                                : localizer::LoadKeyframeFeatureOptions(o.features_path);
+    std::error_code ec;
     if (!fs::is_directory(o.dataset, ec)) {
       throw InputError(FormatInputError(o.dataset, "DATASET", "an ASL dataset folder"));
     }

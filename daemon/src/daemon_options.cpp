@@ -83,16 +83,6 @@ std::string MappingOptions::Validate() const {
   return "";
 }
 
-localizer::KeyframeFeatureOptions DefaultLocalizationFeatureOptions() {
-  localizer::KeyframeFeatureOptions f = mapping::MapBuilderOptions().features;
-  // Scales 1, 1.2, 1.44 (BRISK's own tolerance covers the steps in between and beyond):
-  // 4 levels matched as well but their coarse, less precise keypoints gave more inliers at
-  // the same error, so that the min_inliers gate let 5-10 cm results through (docs/daemon.md).
-  f.detector.num_levels = 3;
-  f.descriptor.scale_with_level = true;  // BRISK pattern follows the level: scale invariant
-  return f;
-}
-
 std::string LocalizationOptions::Validate() const {
   if (enabled && map.empty()) {
     return "localization.map: expected a localization map file or VI-map folder (or --localization-map)";

@@ -170,4 +170,11 @@ std::string KeyframeFeatureOptionsToYaml(const KeyframeFeatureOptions& options) 
   return out.str();
 }
 
+KeyframeFeatureOptions LocalizationQueryFeatureOptions() {
+  KeyframeFeatureOptions f;
+  f.detector.num_levels = 3;             // scales 1, 1.2, 1.44
+  f.descriptor.scale_with_level = true;  // BRISK pattern follows the level: scale invariant
+  return f;
+}
+
 }  // namespace vilma::localizer

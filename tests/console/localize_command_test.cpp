@@ -154,10 +154,9 @@ TEST_CASE("vilma localize parses its command line") {
 }
 
 TEST_CASE("vilma localize: the default query features are vilma-estimatord's profile") {
-  // tests/daemon checks this file against DefaultLocalizationFeatureOptions(); here: it is
-  // found and differs from the map builder's single-level features where the daemon's does.
-  const localizer::KeyframeFeatureOptions f =
-      localizer::LoadKeyframeFeatureOptions(DefaultLocalizationFeaturesPath());
+  // tests/daemon checks config/localization_features.yaml against the same function.
+  CHECK(ParseLocalizeArgs({"D", "M"}).features_path.empty());
+  const localizer::KeyframeFeatureOptions f = localizer::LocalizationQueryFeatureOptions();
   CHECK(f.detector.num_levels == 3);
   CHECK(f.descriptor.scale_with_level);
   CHECK(f.detector.max_keypoints == localizer::KeyframeFeatureOptions().detector.max_keypoints);

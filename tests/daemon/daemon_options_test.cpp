@@ -174,7 +174,7 @@ namespace {
 TEST_CASE("localization query features: built-in profile, file, inline; config file equals the default",
           "[daemon][localization]") {
   // The built-in profile: the map builder's features with a scale pyramid for the query.
-  const localizer::KeyframeFeatureOptions def = DefaultLocalizationFeatureOptions();
+  const localizer::KeyframeFeatureOptions def = localizer::LocalizationQueryFeatureOptions();
   CHECK(def.detector.num_levels == 3);
   CHECK(def.descriptor.scale_with_level);
   localizer::KeyframeFeatureOptions expected = mapping::MapBuilderOptions().features;

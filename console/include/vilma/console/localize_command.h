@@ -25,7 +25,7 @@ struct LocalizeCommandOptions {
   std::string map;            // .vlocmap file or VI-map folder
   std::string rig_path;       // "": DATASET/rig.yaml, else the EuRoC sensor.yaml files
   std::string config_path;    // "": built-in localizer defaults
-  std::string features_path;  // "": DefaultLocalizationFeaturesPath()
+  std::string features_path;  // "": localizer::LocalizationQueryFeatureOptions()
   std::string out_path;       // CSV, "" for none
   int every = 10;             // query every Nth frame (>= 1)
   int camera = 0;
@@ -40,10 +40,6 @@ struct LocalizeCommandOptions {
 // Throws UsageError for a bad command line.
 LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args);
 
-// The query feature profile used without --features: config/localization_features.yaml of the
-// source tree, which is vilma-estimatord's built-in profile (DefaultLocalizationFeatureOptions()
-// in daemon/, checked equal by tests/daemon). VILMA_CONFIG_DIR overrides the folder.
-std::string DefaultLocalizationFeaturesPath();
 
 void PrintLocalizeHelp(std::ostream& out);
 

@@ -86,14 +86,6 @@ struct MappingOptions {
   std::string Validate() const;
 };
 
-// The built-in keyframe-feature profile of localization queries (config/localization_features.yaml):
-// the map builder's feature defaults with a 3-level ORB pyramid and BRISK sizes scaled with the
-// level. The query often sees the map's texture from another distance than the mapping run
-// (docs/benchmarks.md "Localization in the daemon": 1.9x in the simulated room), where
-// single-level fixed-size descriptors stop matching; the map itself keeps the single-level
-// features that frame-to-frame tracking wants.
-localizer::KeyframeFeatureOptions DefaultLocalizationFeatureOptions();
-
 // LOC mode (docs/daemon.md "Localization"): a localizer stage against a prior map; the filter
 // thread estimates T_G_M from its results and publishes VILMA_POSE (T_G_I).
 struct LocalizationOptions {
@@ -105,10 +97,10 @@ struct LocalizationOptions {
   // "" for the built-in defaults.
   std::string localizer_file;
   // Keyframe features of the query images: a file like config/localization_features.yaml
-  // (relative to the daemon config), "" for DefaultLocalizationFeatureOptions(), or the options
+  // (relative to the daemon config), "" for localizer::LocalizationQueryFeatureOptions(), or the options
   // inline as a map.
   std::string features_file;
-  localizer::KeyframeFeatureOptions features = DefaultLocalizationFeatureOptions();
+  localizer::KeyframeFeatureOptions features = localizer::LocalizationQueryFeatureOptions();
   double max_rate_hz = 2.0;  // localization queries at most this often [Hz]
   int min_inliers = 30;      // results with fewer RANSAC inliers are not used (loc_rejected_inliers)
   // Gating of T_G_M measurements against the current estimate (after initialization).

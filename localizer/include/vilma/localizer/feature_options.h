@@ -96,6 +96,17 @@ struct KeyframeFeatureOptions {
   std::string Validate() const;
 };
 
+// The keyframe-feature profile of localization queries (config/localization_features.yaml;
+// vilma-estimatord's `localization.features: ""` and `vilma localize` without --features): the
+// defaults above with a 3-level ORB pyramid and BRISK sizes scaled with the level. A query often
+// sees the map's texture from another distance than the mapping run did (1.9x in the simulated
+// room, docs/benchmarks.md "Localization in the daemon"), where single-level fixed-size
+// descriptors stop matching; the map keeps the single-level features that frame-to-frame
+// tracking wants. 4 levels matched as well, but their coarse, less precise keypoints gave more
+// inliers at the same error, so that the min_inliers gate let 5-10 cm results through
+// (docs/daemon.md "Query features").
+KeyframeFeatureOptions LocalizationQueryFeatureOptions();
+
 // Strict readers: every field of every section is required; throws InputError naming the file,
 // the key and the expectation (also for Validate() failures).
 KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& node);
