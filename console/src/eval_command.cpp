@@ -634,16 +634,8 @@ std::string EvalCommandOptions::Validate() const {
 EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
   EvalCommandOptions o;
   bool align_given = false;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    std::string name = args[i];
-    std::string value;
-    bool has_inline_value = false;
-    const std::size_t eq = name.find('=');
-    if (name.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = name.substr(eq + 1);
-      name = name.substr(0, eq);
-      has_inline_value = true;
-    }
+  for (ArgCursor arg(args); arg.Next();) {
+    const std::string& name = arg.name();
     if (name == "--help" || name == "-h") {
       o.help = true;
       continue;
@@ -652,13 +644,10 @@ EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
                        name == "--segments" || name == "--max-dt" || name == "--json" ||
                        name == "--plot" || name == "--within" || name == "--align-from";
     if (!known && name.rfind("-", 0) != 0) {
-      throw UsageError("unexpected argument '" + args[i] + "' (files go after --gt and --est)");
+      throw UsageError("unexpected argument '" + arg.word() + "' (files go after --gt and --est)");
     }
-    if (!known) throw UsageError("unknown option '" + args[i] + "'");
-    if (!has_inline_value) {
-      if (i + 1 >= args.size()) throw UsageError(name + ": expected a value");
-      value = args[++i];
-    }
+    if (!known) throw UsageError("unknown option '" + arg.word() + "'");
+    const std::string value = arg.Value();
     if (value.empty()) throw UsageError(name + ": expected a non-empty value");
     if (name == "--gt") {
       o.gt_path = value;

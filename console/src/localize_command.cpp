@@ -17,6 +17,7 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
+#include "vilma/core/timing.h"
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
 
@@ -26,25 +27,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using localizer::LocalizationStatus;
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// CPU time of the calling thread [ms]: on a shared machine the wall time also counts the time
-// the thread waited for a core.
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
-}
 
 int ParsePositiveInt(const std::string& option, const std::string& v, int min) {
   try {
@@ -183,21 +165,9 @@ std::string Percent(int n, int d) {
 
 LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
   LocalizeCommandOptions o;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    std::string a = args[i];
-    std::string value;
-    bool has_inline = false;
-    const std::size_t eq = a.find('=');
-    if (a.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = a.substr(eq + 1);
-      a = a.substr(0, eq);
-      has_inline = true;
-    }
-    auto next = [&]() -> std::string {
-      if (has_inline) return value;
-      if (i + 1 >= args.size()) throw UsageError(a + ": expected a value");
-      return args[++i];
-    };
+  for (ArgCursor arg(args); arg.Next();) {
+    const std::string& a = arg.name();
+    auto next = [&arg] { return arg.Value(); };
     if (a == "--help" || a == "-h") {
       o.help = true;
     } else if (a == "--every") {

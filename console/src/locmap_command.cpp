@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "vilma/core/timing.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/vi_map.h"
 
@@ -16,10 +17,6 @@ namespace vilma::console {
 namespace {
 
 namespace fs = std::filesystem;
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string NextValue(const std::vector<std::string>& args, std::size_t* i) {
   if (*i + 1 >= args.size()) throw UsageError(args[*i] + ": expected a value");

@@ -14,6 +14,7 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
+#include "vilma/core/timing.h"
 #include "vilma/core/trajectory.h"
 #include "vilma/estimator/vio_filter.h"
 #include "vilma/mapping/map_builder.h"
@@ -22,13 +23,6 @@
 
 namespace vilma::console {
 namespace {
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const std::size_t i = std::min(v.size() - 1, static_cast<std::size_t>(q * (v.size() - 1) + 0.5));
-  return v[i];
-}
 
 }  // namespace
 
@@ -58,21 +52,9 @@ void PrintVioHelp(std::ostream& out) {
 
 VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
   VioCommandOptions o;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    std::string a = args[i];
-    std::string value;
-    bool has_inline = false;
-    const std::size_t eq = a.find('=');
-    if (a.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = a.substr(eq + 1);
-      a = a.substr(0, eq);
-      has_inline = true;
-    }
-    auto next = [&]() -> std::string {
-      if (has_inline) return value;
-      if (i + 1 >= args.size()) throw UsageError(a + ": expected a value");
-      return args[++i];
-    };
+  for (ArgCursor arg(args); arg.Next();) {
+    const std::string& a = arg.name();
+    auto next = [&arg] { return arg.Value(); };
     if (a == "--help" || a == "-h") {
       o.help = true;
     } else if (a == "--out") {

@@ -19,21 +19,18 @@
 #include <vilma/pose_t.hpp>
 #include <vilma/status_t.hpp>
 
+#include "vilma/core/timing.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_url.h"
 
 namespace {
 
+using vilma::Percentile;
+
 int64_t SteadyNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::steady_clock::now().time_since_epoch())
       .count();
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size() - 1) + 0.5))];
 }
 
 struct Probe {

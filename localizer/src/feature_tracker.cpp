@@ -1,4 +1,5 @@
 #include "vilma/localizer/feature_tracker.h"
+#include "vilma/core/timing.h"
 
 #include <algorithm>
 #include <chrono>
@@ -8,11 +9,6 @@
 
 namespace vilma::localizer {
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
-      .count();
-}
 
 // Two candidates closer than this are the same image point (ORB finds a corner on several
 // pyramid levels); the ratio test compares the best only with distinct points [px].

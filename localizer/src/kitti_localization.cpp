@@ -11,6 +11,7 @@
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "vilma/core/timing.h"
 #include "vilma/core/trajectory.h"
 #include "vilma/localizer/descriptor_index.h"
 
@@ -19,22 +20,11 @@ namespace fs = std::filesystem;
 
 namespace {
 
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::sort(v.begin(), v.end());
   const std::size_t n = v.size();
   return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
-
-double Percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const double pos = q * static_cast<double>(v.size() - 1);
-  return v[static_cast<std::size_t>(std::lround(pos))];
 }
 
 std::vector<std::string> SortedPngs(const fs::path& dir) {

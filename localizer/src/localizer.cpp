@@ -10,21 +10,11 @@
 #include <unordered_map>
 
 #include "vilma/core/error.h"
+#include "vilma/core/timing.h"
 #include "vilma/core/yaml_io.h"
 
 namespace vilma::localizer {
 namespace {
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
-
-// CPU time of the calling thread [ms] (CLOCK_THREAD_CPUTIME_ID).
-double ThreadCpuMs() {
-  timespec ts;
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return 1e3 * static_cast<double>(ts.tv_sec) + 1e-6 * static_cast<double>(ts.tv_nsec);
-}
 
 template <typename T>
 void Read(const YamlNode& node, const char* key, T* value) {

@@ -10,16 +10,13 @@
 #include <unordered_set>
 
 #include "vilma/core/error.h"
+#include "vilma/core/timing.h"
 
 namespace vilma::mapping {
 namespace {
 
 using mapstore::Id;
 using mapstore::VertexId;
-
-double MsSince(std::chrono::steady_clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-}
 
 std::string Upper(std::string s) {
   for (char& c : s) c = static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
