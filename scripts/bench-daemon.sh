@@ -17,6 +17,11 @@
 #                    frames dropped towards the builder, builder time per vertex, and the
 #                    time from SIGTERM to exit (pipeline flush + Finish + save)
 #                    (docs/benchmarks.md "Map building in the daemon")
+#   BENCH_LOC        1: run the daemon in LOC mode against a localization map of the same
+#                    simulated set made from its ground truth (vilma-locmap-gt), and add the
+#                    localization columns: attempts, busy (skipped while the localizer worked),
+#                    accepted, VILMA_POSE frames, localizer stage p50 / max
+#                    (docs/benchmarks.md "Localization in the daemon")
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -26,6 +31,7 @@ seconds=${1:-30}
 preset=${2:-room}
 repeat=${BENCH_REPEAT:-1}
 mapping=${BENCH_MAPPING:-0}
+loc=${BENCH_LOC:-0}
 bin=$build_dir/bin
 for exe in vilma-estimatord vilma-replay vilma-sim vilma-latency-probe; do
   [ -x "$bin/$exe" ] || { echo "bench-daemon: $bin/$exe not built (set VILMA_BUILD_DIR)" >&2; exit 1; }
@@ -45,10 +51,23 @@ cleanup() {
 }
 trap cleanup EXIT
 
+loc_args=()
+if [ "$loc" = 1 ]; then
+  [ -x "$bin/vilma-locmap-gt" ] || { echo "bench-daemon: $bin/vilma-locmap-gt not built" >&2; exit 1; }
+  locmap=$dataset.vlocmap
+  if [ ! -f "$locmap" ] || [ "$dataset/rig.yaml" -nt "$locmap" ]; then
+    "$bin/vilma-locmap-gt" "$dataset" "$locmap" >&2
+  fi
+  loc_args=(--localization-map "$locmap")
+fi
+
 ticks=$(getconf CLK_TCK)
 cpu_ticks() { awk '{print $14 + $15}' "/proc/$1/stat"; }
 
-if [ "$mapping" = 1 ]; then
+if [ "$loc" = 1 ]; then
+  echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | drops | loc attempts | busy | accepted | VILMA_POSE frames | stage p50 / max [ms] |"
+  echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+elif [ "$mapping" = 1 ]; then
   echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | drops | vertices | vertex rate [Hz] | map frames dropped | builder per vertex mean / max [ms] | SIGTERM to exit [s] |"
   echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 else
@@ -61,7 +80,8 @@ for _ in $(seq "$repeat"); do
   url="udpm://239.255.76.67:$port?ttl=0"
   map_args=()
   if [ "$mapping" = 1 ]; then rm -rf "$work/map"; map_args=(--save-map "$work/map"); fi
-  "$bin/vilma-estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" > "$work/daemon.out" 2>&1 &
+  "$bin/vilma-estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" \
+    "${loc_args[@]}" > "$work/daemon.out" 2>&1 &
   daemon_pid=$!
   "$bin/vilma-latency-probe" --lcm-url "$url" --idle-timeout 2 > "$work/probe.out" 2>&1 &
   probe_pid=$!
@@ -81,7 +101,13 @@ for _ in $(seq "$repeat"); do
   matched=$(awk '$1 == "images" {print $6}' "$work/probe.out")
   frames=$(awk '$1 == "images" {print $4}' "$work/probe.out")
   status_cpu=$(awk '$1 == "status_cpu_load" {printf "%.0f%%", 100 * $2}' "$work/probe.out")
-  if [ "$mapping" = 1 ]; then
+  rep() { awk -v k="$1" '$1 == k {print $2}' "$work/daemon.out"; }
+  if [ "$loc" = 1 ]; then
+    stage=$(awk -v m="$(rep loc_stage_us_p50)" -v x="$(rep loc_stage_us_max)" 'BEGIN {printf "%.1f / %.1f", m / 1000, x / 1000}')
+    printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" \
+      "$frames" "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$(get drops)" \
+      "$(rep loc_attempts)" "$(rep loc_busy)" "$(rep loc_tgm_updates)" "$(rep loc_poses_published)" "$stage"
+  elif [ "$mapping" = 1 ]; then
     rep() { awk -v k="$1" '$1 == k {print $2}' "$work/daemon.out"; }
     vertices=$(rep map_vertices)
     rate=$(awk -v v="$vertices" -v t0="$t0" -v t1="$t1" 'BEGIN {printf "%.1f", v / (t1 - t0)}')

@@ -1054,9 +1054,14 @@ void EstimatorDaemon::Impl::FilterLoop() {
   int64_t loc_last_query_ns = 0;
   int64_t loc_tracked_frames = 0;
   const double loc_rate = options.localization.max_rate_hz;
-  const int64_t loc_min_dt_ns = static_cast<int64_t>(0.9e9 / loc_rate);
-  // --input-log: exactly every N-th tracking frame, N from the camera and localization rates.
   const double camera_rate = rig.cameras[static_cast<std::size_t>(vio)].rate_hz;
+  // Live: a query when a full period 1 / max_rate_hz has passed, less half a camera period so
+  // that stamp jitter does not push the query one frame later (20 Hz camera, 2 Hz: every 10th
+  // frame, never more often than max_rate_hz).
+  const double half_camera_period_s = camera_rate > 0.0 ? 0.5 / camera_rate : 0.0;
+  const int64_t loc_min_dt_ns =
+      std::max<int64_t>(0, std::llround((1.0 / loc_rate - half_camera_period_s) * 1e9));
+  // --input-log: exactly every N-th tracking frame, N from the camera and localization rates.
   const int64_t loc_every_n =
       std::max<int64_t>(1, std::llround(camera_rate > 0.0 ? camera_rate / loc_rate : 1.0));
   auto reset_global = [&] {
