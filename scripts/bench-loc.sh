@@ -25,7 +25,7 @@
 # Prints a markdown table. Issue targets (gt map): RMSE <= 0.08 m (room), <= 0.15 m (hall),
 # >= 40 % lower than VIO only, recall >= 80 %.
 #
-# Usage: scripts/bench-loc.sh [WORLD ...]       (default: room hall)
+# Usage: scripts/bench-loc.sh [WORLD ...]       (room, hall, street; default: room hall)
 #   BENCH_MAP        gt, vio or both (default both)
 #   VILMA_BUILD_DIR  build folder with bin/vilma-{estimatord,replay,locmap-gt,lcm-poses}, bin/vilma
 #   VILMA_DATASETS   datasets folder of scripts/make-datasets.sh (default
@@ -53,12 +53,12 @@ for exe in vilma-estimatord vilma-replay vilma-locmap-gt vilma-lcm-poses vilma v
 done
 mkdir -p "$work"
 
-map_set() { case "$1" in room) echo room-easy ;; hall) echo hall ;; *) return 1 ;; esac; }
+map_set() { case "$1" in room) echo room-easy ;; hall) echo hall ;; street) echo street ;; *) return 1 ;; esac; }
 
 # The datasets this run needs (make-datasets.sh skips the ones that are up to date).
 needed=""
 for w in "${worlds[@]}"; do
-  m=$(map_set "$w") || { echo "bench-loc: unknown world '$w' (room, hall)" >&2; exit 2; }
+  m=$(map_set "$w") || { echo "bench-loc: unknown world '$w' (room, hall, street)" >&2; exit 2; }
   needed="$needed,$m,$w-s2,$w-s3"
 done
 VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" \

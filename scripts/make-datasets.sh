@@ -23,6 +23,8 @@ SETS=(
   "room-s3    room       1    2       60      90"
   "hall-s2    hall       1    1       60      120"
   "hall-s3    hall       1    2       60      120"
+  "street-s2  street     1    1       60      120"
+  "street-s3  street     1    2       60      120"
 )
 # Bump when the simulator's output changes, so that old caches are remade.
 SIM_VERSION=1
