@@ -24,7 +24,8 @@ void PrintHelp() {
       "usage: vilma-estimatord [--config daemon.yaml] [--rig rig.yaml] [--lcm-url URL]\n"
       "                        [--channel-suffix S] [--input-log FILE] [--save-map DIR]\n"
       "                        [--localization-map FILE|MAPDIR] [--print-config]\n"
-      "                        [--fault-stall-filter-after N] [--help]\n"
+      "                        [--fault-stall-filter-after N] [--fault-reset-filter-at N]\n"
+      "                        [--help]\n"
       "\n"
       "Realtime visual-inertial odometry on LCM: subscribes to the camera and IMU channels,\n"
       "publishes VILMA_ODOM (pose_t T_M_I, every frame) and VILMA_STATUS (status_t, 1 Hz).\n"
@@ -49,6 +50,8 @@ void PrintHelp() {
       "  --print-config      print the effective options and exit\n"
       "  --fault-stall-filter-after N   test: the filter thread stalls after N frames\n"
       "                      (the systemd watchdog is then no longer petted)\n"
+      "  --fault-reset-filter-at N      test: the filter resets at its N-th frame, as on a\n"
+      "                      failed health check (the map builder starts a new mission)\n"
       "\n"
       "SIGTERM / SIGINT: stop, flush, finish the mission, exit 0. Exit status: 0 OK, 1 bad\n"
       "input (file, field), 2 bad command line, 3 the map could not be saved (--save-map).\n";
@@ -60,6 +63,7 @@ int main(int argc, char** argv) {
   std::string config_path, rig_path, lcm_url, suffix, input_log, save_map, loc_map;
   bool have_url = false, have_suffix = false, print_config = false;
   long long stall_after = -1;
+  long long reset_at = -1;
   const std::vector<std::string> args(argv + 1, argv + argc);
   try {
     for (std::size_t i = 0; i < args.size(); ++i) {
@@ -110,6 +114,17 @@ int main(int argc, char** argv) {
         if (used != v.size() || stall_after < 0) {
           throw std::invalid_argument("--fault-stall-filter-after: expected a frame count >= 0");
         }
+      } else if (a == "--fault-reset-filter-at") {
+        const std::string v = next();
+        std::size_t used = 0;
+        try {
+          reset_at = std::stoll(v, &used);
+        } catch (const std::exception&) {
+          used = 0;
+        }
+        if (used != v.size() || reset_at < 0) {
+          throw std::invalid_argument("--fault-reset-filter-at: expected a frame count >= 0");
+        }
       } else {
         throw std::invalid_argument("unknown argument '" + a + "'");
       }
@@ -144,6 +159,7 @@ int main(int argc, char** argv) {
       options.localization.map = loc_map;
     }
     options.fault_stall_filter_after = stall_after;
+    options.fault_reset_filter_at = reset_at;
     vilma::ThrowIfInvalid(options.Validate(),
                           config_path.empty() ? "command line" : config_path);
     if (options.rig.empty()) {

@@ -132,6 +132,8 @@ enum Counter : int {
   kMapVertexUsMean,    // builder time per vertex [us], mean and max
   kMapVertexUsMax,
   kMapDeltas,          // deltas taken for the stream
+  kMapMissions,        // missions started (a new one after each filter reset / restart)
+  kMapMissionsDropped, // ended with fewer than 2 vertices: neither saved nor streamed
   kStreamSent,         // chunks queued (each transmitted once, then resent until acked)
   kStreamAcked,
   kStreamRetransmitted,
@@ -210,6 +212,8 @@ constexpr std::array<const char*, kNumCounters> kCounterNames = {
     "map_vertex_us_mean",
     "map_vertex_us_max",
     "map_deltas",
+    "map_missions",
+    "map_missions_dropped",
     "stream_sent",
     "stream_acked",
     "stream_retransmitted",
@@ -276,7 +280,9 @@ struct FilterItem {
 
 // Filter -> map builder.
 struct MapItem {
-  enum class Kind : uint8_t { kImu, kFrame };
+  // kBreak: the filter's M frame starts anew (reset or restart): the mission ends here and the
+  // items that follow belong to a new one.
+  enum class Kind : uint8_t { kImu, kFrame, kBreak };
   Kind kind = Kind::kImu;
   ImuSample imu;
   mapping::FrameState state;
@@ -415,6 +421,26 @@ struct EstimatorDaemon::Impl {
   std::unique_ptr<lcm::LCM> stream_lcm;  // the mission stream's own LCM, handled by the map thread
   std::unique_ptr<mapstore::LcmMissionStreamSender> stream;
   std::atomic<int> map_frames_in_flight{0};
+  // Missions (docs/daemon.md "Missions and filter resets"): one per continuous odometry
+  // segment. Mission k has the seed MissionSeed(k) and the name MissionName(k).
+  mapping::MapBuilderOptions map_builder_options;  // cameras resolved
+  uint64_t mission_seed_base = 0;
+  int mission_index = 0;
+  mapstore::MissionStreamSenderOptions sender_options;
+  std::vector<mapstore::VIMap> finished_maps;  // kept missions, for --save-map
+  int missions_kept = 0;
+  bool map_run_ended = false;  // the last mission ended (its counters are in map_stats_done)
+  mapping::MapBuilderStats map_stats_done;  // counters of the kept missions that ended
+  mapstore::MissionStreamSenderCounters stream_counters_done;  // of the senders that ended
+  // A mission that ended while streaming: its last delta and END go out while the next
+  // mission streams (the map thread never waits for mapstored in the middle of a run).
+  struct EndingStream {
+    std::unique_ptr<mapstore::LcmMissionStreamSender> sender;
+    std::deque<mapstore::MissionDelta> backlog;
+    int64_t deadline_ns = 0;  // steady clock: stream.end_timeout_s after the mission ended
+  };
+  std::vector<EndingStream> ending_streams;
+  int streams_finished = 0, streams_unfinished = 0;
   // Result of the end of the mission (read after the map thread joined).
   bool map_saved = false;
   bool stream_finished = false;
@@ -464,6 +490,10 @@ struct EstimatorDaemon::Impl {
 
   // ---- map-builder stage ----
   void SetUpMapping();
+  uint64_t MissionSeed(int k) const;
+  std::string MissionName(int k) const;
+  std::unique_ptr<mapstore::LcmMissionStreamSender> MakeSender(const mapstore::MissionId& id,
+                                                              const std::string& name);
   void MapLoop();
   void CopyMapCounters();
 
@@ -714,7 +744,10 @@ void EstimatorDaemon::Impl::SetUpMapping() {
       if (seed == 0) seed = 1;
     }
   }
-  builder = std::make_unique<mapping::MapBuilder>(rig, builder_options, seed, m.mission_name);
+  map_builder_options = builder_options;
+  mission_seed_base = seed;
+  builder = std::make_unique<mapping::MapBuilder>(rig, builder_options, MissionSeed(0), MissionName(0));
+  Count(kMapMissions);
   map_queue = std::make_unique<Spsc<MapItem>>(static_cast<std::size_t>(m.queue_capacity));
   if (m.stream.enabled) {
     const std::string url =
@@ -724,16 +757,39 @@ void EstimatorDaemon::Impl::SetUpMapping() {
       throw InputError(FormatInputError("daemon options", "mapping.stream.lcm_url",
                                         "an LCM URL that opens (" + url + ")"));
     }
-    mapstore::MissionStreamSenderOptions sender_options;
     sender_options.max_window_chunks = static_cast<std::size_t>(m.stream.max_window_chunks);
     sender_options.retransmit_timeout_s = m.stream.retransmit_timeout_s;
     sender_options.max_retransmit_timeout_s =
         std::max(sender_options.max_retransmit_timeout_s, m.stream.retransmit_timeout_s);
-    stream = std::make_unique<mapstore::LcmMissionStreamSender>(
-        stream_lcm.get(), ChannelName(m.stream.chunk_channel, options.channel_suffix),
-        ChannelName(m.stream.ack_channel, options.channel_suffix), builder->mission_id(),
-        m.mission_name, sender_options);
+    stream = MakeSender(builder->mission_id(), MissionName(0));
   }
+}
+
+// Mission 0 keeps the configured seed (the ids of a run without resets are unchanged); mission
+// k > 0 gets a seed mixed from it and k (splitmix64's finalizer), so ids stay deterministic
+// with --input-log and the missions of one run never share ids.
+uint64_t EstimatorDaemon::Impl::MissionSeed(int k) const {
+  if (k == 0) return mission_seed_base;
+  uint64_t z = mission_seed_base + 0x9E3779B97F4A7C15ULL * static_cast<uint64_t>(k);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return z == 0 ? 1 : z;
+}
+
+// "<mission_name>-<k>" after a reset; "" stays "" (mapstored then names the folder by the id).
+std::string EstimatorDaemon::Impl::MissionName(int k) const {
+  const std::string& name = options.mapping.mission_name;
+  if (k == 0 || name.empty()) return name;
+  return name + "-" + std::to_string(k);
+}
+
+std::unique_ptr<mapstore::LcmMissionStreamSender> EstimatorDaemon::Impl::MakeSender(
+    const mapstore::MissionId& id, const std::string& name) {
+  const MappingOptions& m = options.mapping;
+  return std::make_unique<mapstore::LcmMissionStreamSender>(
+      stream_lcm.get(), ChannelName(m.stream.chunk_channel, options.channel_suffix),
+      ChannelName(m.stream.ack_channel, options.channel_suffix), id, name, sender_options);
 }
 
 void EstimatorDaemon::Impl::LogLimited(int topic, const char* format, ...) {
@@ -1044,9 +1100,26 @@ void EstimatorDaemon::Impl::FilterLoop() {
   const double vertex_rate_hz = options.mapping.map_builder.vertex_rate_hz;
   const int64_t min_vertex_dt_ns =
       vertex_rate_hz > 0.0 ? static_cast<int64_t>(0.9e9 / vertex_rate_hz) : 0;
-  bool map_has_vertex = false;
+  bool map_has_vertex = false;  // a frame went to the current mission
   int64_t map_last_vertex_ns = 0;
   MapItem map_item;
+  // A new M frame (filter reset or restart): the mission ends. The break goes into the map
+  // queue in order with the IMU samples and frames; live, when the queue is full, it is pushed
+  // before the next frame (which is dropped while it cannot be). Nothing to end before the
+  // current mission got a frame.
+  bool map_break_pending = false;
+  auto push_map_break = [&]() -> bool {
+    MapItem brk;
+    brk.kind = MapItem::Kind::kBreak;
+    const bool pushed = log_mode ? PushBlocking(*map_queue, brk) : map_queue->push(brk);
+    if (pushed) map_wake.Notify();
+    return pushed;
+  };
+  auto end_map_mission = [&] {
+    if (!mapping_enabled || !map_has_vertex) return;
+    map_has_vertex = false;
+    map_break_pending = !push_map_break();
+  };
   // ---- LOC mode: T_G_M from the localizer's results (docs/daemon.md "Localization").
   GlobalFrameEstimator global_frame(options.localization);
   uint64_t epoch = 0;  // M frame generation: results of an older M are stale
@@ -1165,6 +1238,7 @@ void EstimatorDaemon::Impl::FilterLoop() {
         resets_before_restart += filter->stats().resets;
         filter = std::make_unique<estimator::VioFilter>(rig, vio, options.estimator);
         ever_initialized = false;
+        end_map_mission();  // a new M frame: a new mission
         if (localization_enabled) reset_global();  // a new M frame
       } else {
         if (options.fault_stall_filter_after >= 0 && frames >= options.fault_stall_filter_after) {
@@ -1175,6 +1249,13 @@ void EstimatorDaemon::Impl::FilterLoop() {
                          static_cast<long long>(frames));
           }
           while (!stop.load()) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+        }
+        if (frames == options.fault_reset_filter_at) {
+          // Fault injection (--fault-reset-filter-at): the filter resets as on a failed health
+          // check (at this frame, or at the first initialized one after it).
+          filter->RequestReset("fault injection (--fault-reset-filter-at)");
+          std::fprintf(stderr, "vilma-estimatord: fault injection: filter reset at frame %lld\n",
+                       static_cast<long long>(frames));
         }
         OutputItem out;
         out.filter_start_ns = SteadyNs();
@@ -1189,12 +1270,15 @@ void EstimatorDaemon::Impl::FilterLoop() {
         counters[kFilterResets].store(resets_before_restart + filter->stats().resets,
                                       std::memory_order_relaxed);
         if (r.reset) LogLimited(10, "filter reset: %s", r.reset_reason.c_str());
+        if (r.reset) end_map_mission();  // the filter re-initializes: a new M frame
         if (mapping_enabled && r.pose_valid && !r.reset) {
           const bool wanted = !map_has_vertex || r.t_ns - map_last_vertex_ns >= min_vertex_dt_ns;
           if (!wanted) {
             Count(kMapFramesThinned);
           } else {
-            bool room = map_frames_in_flight.load() < options.mapping.max_frames_in_flight;
+            if (map_break_pending) map_break_pending = !push_map_break();
+            bool room = !map_break_pending &&
+                        map_frames_in_flight.load() < options.mapping.max_frames_in_flight;
             if (!room && log_mode) {
               // Deterministic: wait for the builder (it never waits for the filter).
               while (map_frames_in_flight.load() >= options.mapping.max_frames_in_flight &&
@@ -1404,8 +1488,47 @@ void EstimatorDaemon::Impl::PushMap(const MapItem& item) {
 
 // ---------------------------------------------------------------- map-builder stage
 
+namespace {
+void AddStreamCounters(const mapstore::MissionStreamSenderCounters& c,
+                       mapstore::MissionStreamSenderCounters* sum) {
+  sum->sent += c.sent;
+  sum->retransmitted += c.retransmitted;
+  sum->acked += c.acked;
+  sum->window_full += c.window_full;
+  sum->disk_full_acks += c.disk_full_acks;
+  sum->error_acks += c.error_acks;
+  sum->ignored_acks += c.ignored_acks;
+  sum->bytes_sent += c.bytes_sent;
+}
+
+// Adds the counters of a mission that ended to the run's (what VILMA_STATUS reports).
+void AddBuilderStats(const mapping::MapBuilderStats& b, mapping::MapBuilderStats* sum) {
+  sum->vertices += b.vertices;
+  sum->imu_edges += b.imu_edges;
+  sum->keypoints += b.keypoints;
+  sum->landmarks += b.landmarks;
+  sum->landmarks_good += b.landmarks_good;
+  sum->vertex_ms_total += b.vertex_ms_total;
+  sum->vertex_ms_max = std::max(sum->vertex_ms_max, b.vertex_ms_max);
+  sum->finish_ms += b.finish_ms;
+}
+
+// The whole of one mission of `map` as a delta (mission, vertices, edges, landmarks in their
+// insertion order), to gather the missions of a run into one map.
+mapstore::MissionDelta WholeMission(const mapstore::VIMap& map, const mapstore::MissionId& id) {
+  mapstore::MissionDelta d;
+  d.mission = map.mission(id);
+  for (const mapstore::VertexId& v : map.vertex_ids(id)) d.vertices.push_back(map.vertex(v));
+  for (const mapstore::EdgeId& e : map.edge_ids(id)) d.edges.push_back(map.edge(e));
+  for (const mapstore::LandmarkId& l : map.landmark_ids(id)) d.landmarks.push_back(map.landmark(l));
+  return d;
+}
+}  // namespace
+
+// VILMA_STATUS map counters: the missions that ended (kept ones) plus the current one.
 void EstimatorDaemon::Impl::CopyMapCounters() {
-  const mapping::MapBuilderStats& b = builder->stats();
+  mapping::MapBuilderStats b = map_stats_done;
+  if (!map_run_ended) AddBuilderStats(builder->stats(), &b);  // else in map_stats_done
   auto set = [&](Counter c, int64_t v) { counters[c].store(v, std::memory_order_relaxed); };
   set(kMapVertices, b.vertices);
   set(kMapImuEdges, b.imu_edges);
@@ -1414,8 +1537,10 @@ void EstimatorDaemon::Impl::CopyMapCounters() {
   set(kMapLandmarksGood, b.landmarks_good);
   set(kMapVertexUsMean, static_cast<int64_t>(b.vertex_ms_mean() * 1e3));
   set(kMapVertexUsMax, static_cast<int64_t>(b.vertex_ms_max * 1e3));
-  if (stream) {
-    const mapstore::MissionStreamSenderCounters c = stream->sender().counters();
+  if (stream_lcm) {
+    mapstore::MissionStreamSenderCounters c = stream_counters_done;
+    for (const EndingStream& e : ending_streams) AddStreamCounters(e.sender->sender().counters(), &c);
+    if (stream) AddStreamCounters(stream->sender().counters(), &c);
     set(kStreamSent, static_cast<int64_t>(c.sent));
     set(kStreamAcked, static_cast<int64_t>(c.acked));
     set(kStreamRetransmitted, static_cast<int64_t>(c.retransmitted));
@@ -1426,33 +1551,113 @@ void EstimatorDaemon::Impl::CopyMapCounters() {
 }
 
 // The map thread: feeds the builder in the filter's order (IMU samples and the states and
-// images of the frames it wants), streams its deltas, and at the end finishes the mission,
-// ends the stream and saves the map. Live mode: never waited for by the filter (drops are
-// counted there); --input-log: the filter waits for it, so the map is the same on every run.
+// images of the frames it wants), streams its deltas, ends the mission at a break (filter
+// reset / restart: a new M frame) and starts the next, and at the end finishes the last
+// mission, ends the streams and saves the map. Live mode: never waited for by the filter
+// (drops are counted there); --input-log: the filter waits for it, so the map is the same on
+// every run.
 void EstimatorDaemon::Impl::MapLoop() {
-  mapping::MapBuilder& b = *builder;
   const MapStreamOptions& so = options.mapping.stream;
+  const bool save = !options.mapping.save_dir.empty();
   std::vector<cv::Mat> images(rig.cameras.size());
   std::deque<mapstore::MissionDelta> backlog;  // deltas waiting for window space, in order
   int64_t vertices_at_last_delta = 0;
   int64_t last_delta_ns = SteadyNs();
   const int64_t delta_period_ns = SecondsToNs(so.delta_period_s);
+  double finish_ms = 0.0;  // Finish() of every mission
 
+  // Deltas go out once the mission has 2 vertices: a mission dropped for having fewer never
+  // reaches mapstored.
   auto take_delta = [&](bool always) {
-    mapstore::MissionDelta delta = b.TakeDelta();
+    mapstore::MissionDelta delta = builder->TakeDelta();
     if (!always && delta.vertices.empty() && delta.edges.empty() && delta.landmarks.empty()) return;
     backlog.push_back(std::move(delta));
     Count(kMapDeltas);
   };
   auto service_stream = [&](int timeout_ms) {
-    // Acks (the sender's handler runs in this thread), retransmissions, queued deltas.
+    // Acks (the senders' handlers run in this thread: each takes the acks of its mission),
+    // retransmissions, queued deltas.
     if (stream_lcm->handleTimeout(timeout_ms) > 0) {
       while (stream_lcm->handleTimeout(0) > 0) {
       }
     }
-    while (!backlog.empty() && stream->sender().Send(backlog.front())) backlog.pop_front();
-    stream->sender().Poll();
-    counters[kStreamBacklog].store(static_cast<int64_t>(backlog.size()), std::memory_order_relaxed);
+    if (stream) {
+      while (!backlog.empty() && stream->sender().Send(backlog.front())) backlog.pop_front();
+      stream->sender().Poll();
+    }
+    std::size_t waiting = backlog.size();
+    const int64_t now = SteadyNs();
+    for (std::size_t i = 0; i < ending_streams.size();) {
+      EndingStream& e = ending_streams[i];
+      mapstore::MissionStreamSender& s = e.sender->sender();
+      while (!e.backlog.empty() && s.Send(e.backlog.front())) e.backlog.pop_front();
+      if (e.backlog.empty()) s.End();  // queued once; retried while the window is full
+      s.Poll();
+      waiting += e.backlog.size();
+      const bool timed_out = now >= e.deadline_ns;
+      if (s.finished() || timed_out) {
+        if (s.finished()) {
+          ++streams_finished;
+        } else {
+          ++streams_unfinished;
+          std::fprintf(stderr,
+                       "vilma-estimatord: mapstored did not acknowledge mission %s within "
+                       "mapping.stream.end_timeout_s (%.1f s): %s\n",
+                       s.mission_id().Hex().c_str(), so.end_timeout_s, s.last_message().c_str());
+        }
+        AddStreamCounters(s.counters(), &stream_counters_done);
+        ending_streams.erase(ending_streams.begin() + static_cast<std::ptrdiff_t>(i));
+        continue;
+      }
+      ++i;
+    }
+    counters[kStreamBacklog].store(static_cast<int64_t>(waiting), std::memory_order_relaxed);
+  };
+  // Ends the current mission: landmarks (Finish), then either dropped (fewer than 2 vertices;
+  // at the end of a run without any other mission the last one is kept, as before) or kept:
+  // the last delta and END go out without waiting, the map is kept for --save-map.
+  auto end_mission = [&](bool end_of_run) {
+    builder->Finish();
+    finish_ms += builder->stats().finish_ms;
+    const bool keep = builder->stats().vertices >= 2 || (end_of_run && missions_kept == 0);
+    map_run_ended = end_of_run;
+    if (!keep) {
+      Count(kMapMissionsDropped);
+      // Nothing of it was streamed (take_delta waits for 2 vertices): the sender just goes.
+      if (stream) {
+        AddStreamCounters(stream->sender().counters(), &stream_counters_done);
+        stream.reset();
+      }
+      backlog.clear();
+      LogLimited(12, "map: mission %s dropped (%lld vertices)",
+                 builder->mission_id().Hex().c_str(),
+                 static_cast<long long>(builder->stats().vertices));
+      return;
+    }
+    ++missions_kept;
+    AddBuilderStats(builder->stats(), &map_stats_done);
+    if (stream) {
+      take_delta(true);  // landmarks, changed vertices, complete = true
+      EndingStream e;
+      e.sender = std::move(stream);
+      e.backlog = std::move(backlog);
+      backlog.clear();
+      e.deadline_ns = SteadyNs() + SecondsToNs(so.end_timeout_s);
+      ending_streams.push_back(std::move(e));
+    }
+    if (save) finished_maps.push_back(builder->ReleaseMap());
+  };
+  auto start_mission = [&] {
+    ++mission_index;
+    builder = std::make_unique<mapping::MapBuilder>(rig, map_builder_options,
+                                                    MissionSeed(mission_index),
+                                                    MissionName(mission_index));
+    Count(kMapMissions);
+    LogLimited(13, "map: the filter's frame M starts anew (reset / restart): mission %d, %s",
+               mission_index, builder->mission_id().Hex().c_str());
+    if (stream_lcm) stream = MakeSender(builder->mission_id(), MissionName(mission_index));
+    vertices_at_last_delta = 0;
+    last_delta_ns = SteadyNs();
   };
 
   MapItem item;
@@ -1461,28 +1666,37 @@ void EstimatorDaemon::Impl::MapLoop() {
     while (map_queue->pop(item)) {
       any = true;
       if (item.kind == MapItem::Kind::kImu) {
-        b.AddImu(item.imu);
+        builder->AddImu(item.imu);
+        continue;
+      }
+      if (item.kind == MapItem::Kind::kBreak) {
+        // The filter's M frame starts anew: a mission is one frame M (docs/daemon.md).
+        end_mission(false);
+        start_mission();
+        CopyMapCounters();
         continue;
       }
       for (std::size_t c = 0; c < images.size() && c < item.images.size(); ++c) {
         images[c] = item.images[c];
         item.images[c].release();
       }
-      b.AddFrame(item.state, images);
+      builder->AddFrame(item.state, images);
       for (cv::Mat& m : images) m.release();  // back to the pool
       map_frames_in_flight.fetch_sub(1);
       CopyMapCounters();
-      if (stream && b.stats().vertices - vertices_at_last_delta >= so.delta_vertices) {
+      if (stream && builder->stats().vertices >= 2 &&
+          builder->stats().vertices - vertices_at_last_delta >= so.delta_vertices) {
         take_delta(false);
-        vertices_at_last_delta = b.stats().vertices;
+        vertices_at_last_delta = builder->stats().vertices;
         last_delta_ns = SteadyNs();
       }
     }
-    if (stream) {
+    if (stream_lcm) {
       const int64_t now = SteadyNs();
-      if (b.stats().vertices > vertices_at_last_delta && now - last_delta_ns >= delta_period_ns) {
+      if (stream && builder->stats().vertices >= 2 &&
+          builder->stats().vertices > vertices_at_last_delta && now - last_delta_ns >= delta_period_ns) {
         take_delta(false);
-        vertices_at_last_delta = b.stats().vertices;
+        vertices_at_last_delta = builder->stats().vertices;
         last_delta_ns = now;
       }
       service_stream(0);
@@ -1490,7 +1704,7 @@ void EstimatorDaemon::Impl::MapLoop() {
     }
     if (!any) {
       if (filter_done.load() && map_queue->read_available() == 0) break;
-      if (stream) {
+      if (stream_lcm) {
         service_stream(10);  // waits on the LCM socket (acks) for up to 10 ms
       } else {
         map_wake.Wait(50 * kMs);
@@ -1498,37 +1712,50 @@ void EstimatorDaemon::Impl::MapLoop() {
     }
   }
 
-  // End of the mission: triangulate and evaluate the landmarks, complete the IMU edges.
+  // End of the run: the last mission ends like the others; then every mission that is still
+  // ending gets until its own deadline (at most end_timeout_s from now) for mapstored's acks.
   const auto t0 = std::chrono::steady_clock::now();
-  b.Finish();
+  end_mission(true);
+  if (stream_lcm) {
+    while (!ending_streams.empty()) service_stream(10);
+  }
   CopyMapCounters();
+  const int missions = mission_index + 1;
+  const mapping::MapBuilderStats& st = map_stats_done;
   std::ostringstream report;
-  report << "map: " << b.stats().vertices << " vertices, " << b.stats().landmarks << " landmarks ("
-         << b.stats().landmarks_good << " good), finish "
-         << static_cast<int>(b.stats().finish_ms) << " ms";
-  if (stream) {
-    // The last delta (landmarks, changed vertices, complete = true), then END; wait at most
-    // end_timeout_s for mapstored's acknowledgements.
-    take_delta(true);
-    const int64_t deadline = SteadyNs() + SecondsToNs(so.end_timeout_s);
-    while (!backlog.empty() && SteadyNs() < deadline) service_stream(10);
-    const double left_s = std::max(0.0, static_cast<double>(deadline - SteadyNs()) * 1e-9);
-    stream_finished = backlog.empty() && stream->EndAndWait(left_s);
-    CopyMapCounters();
-    const mapstore::MissionStreamSenderCounters c = stream->sender().counters();
+  report << "map: ";
+  if (missions > 1) {
+    report << missions << " missions (" << (missions - missions_kept)
+           << " dropped: fewer than 2 vertices), ";
+  }
+  report << st.vertices << " vertices, " << st.landmarks << " landmarks (" << st.landmarks_good
+         << " good), finish " << static_cast<int>(finish_ms) << " ms";
+  if (stream_lcm) {
+    stream_finished = streams_unfinished == 0 && streams_finished == missions_kept;
+    const mapstore::MissionStreamSenderCounters& c = stream_counters_done;
     report << "; stream: " << c.sent << " chunks, " << c.acked << " acked, " << c.retransmitted
-           << " retransmitted, " << (stream_finished ? "mission complete in mapstored"
-                                                     : "NOT acknowledged by mapstored");
-    if (!stream_finished) {
-      std::fprintf(stderr,
-                   "vilma-estimatord: mapstored did not acknowledge the whole mission within "
-                   "mapping.stream.end_timeout_s (%.1f s): %s\n",
-                   so.end_timeout_s, stream->sender().last_message().c_str());
+           << " retransmitted, ";
+    if (missions_kept == 1) {
+      report << (stream_finished ? "mission complete in mapstored" : "NOT acknowledged by mapstored");
+    } else {
+      report << streams_finished << " of " << missions_kept << " missions complete in mapstored";
     }
   }
-  if (!options.mapping.save_dir.empty()) {
+  if (save) {
     try {
-      const mapstore::MapSaveSummary saved = mapstore::SaveMap(b.map(), options.mapping.save_dir);
+      mapstore::MapSaveSummary saved;
+      if (finished_maps.size() == 1) {
+        saved = mapstore::SaveMap(finished_maps[0], options.mapping.save_dir);
+      } else {
+        // The missions of the run in one map, in the order they were made.
+        mapstore::VIMap all;
+        for (const mapstore::VIMap& m : finished_maps) {
+          for (const mapstore::MissionId& id : m.mission_ids()) {
+            mapstore::ApplyMissionDelta(WholeMission(m, id), &all);
+          }
+        }
+        saved = mapstore::SaveMap(all, options.mapping.save_dir);
+      }
       map_saved = true;
       report << "; saved to " << options.mapping.save_dir << " (" << saved.bytes_written << " B)";
     } catch (const std::exception& e) {

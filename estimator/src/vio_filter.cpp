@@ -509,7 +509,9 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8) {
   result.num_added = x_.num_active() - before;
   result.num_features = x_.num_active();
 
-  const std::string health = CheckHealth();
+  std::string health = CheckHealth();
+  if (health.empty() && !requested_reset_.empty()) health = requested_reset_;
+  requested_reset_.clear();
   if (!health.empty()) {
     ++stats_.resets;
     result.reset = true;

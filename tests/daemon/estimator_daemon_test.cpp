@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <catch2/catch.hpp>
+#include <cstdlib>
 #include <filesystem>
 #include <random>
 #include <thread>
@@ -155,6 +156,84 @@ TEST_CASE("map building: the stage runs a log, saves the mission, drops nothing"
 
   // A second run into the same folder is refused before anything runs (no silent overwrite).
   CHECK_THROWS_AS(EstimatorDaemon(options, SmallRig()), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+// "name value" of the daemon's final report (-1 when absent).
+long long ReportCounter(const std::string& report, const std::string& name) {
+  const std::string key = name + " ";
+  std::size_t at = report.rfind("\n" + key);
+  if (at != std::string::npos) {
+    ++at;
+  } else if (report.compare(0, key.size(), key) == 0) {
+    at = 0;
+  } else {
+    return -1;
+  }
+  return std::atoll(report.c_str() + at + key.size());
+}
+
+// A filter reset (fault injection) ends the mission: the frames after it are a new mission
+// with its own ids and name, not linked to the first; one left with < 2 vertices is dropped.
+TEST_CASE("map building: a filter reset starts a new mission", "[daemon][mapping]") {
+  const std::string dir = "/tmp/vilma_daemon_reset_test_" + std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  DaemonOptions options;
+  options.channels.cameras = {"CAM0"};
+  options.input_log = WriteLog(dir);
+  options.mapping.enabled = true;
+  options.mapping.max_frames_in_flight = 1;
+  options.mapping.queue_capacity = 16;
+  options.mapping.mission_name = "small";
+  auto run = [&](int64_t reset_at, const std::string& name) {
+    options.lcm_url = "file://" + dir + "/" + name + ".lcm?mode=w";
+    options.mapping.save_dir = dir + "/" + name;
+    options.fault_reset_filter_at = reset_at;
+    EstimatorDaemon daemon(options, SmallRig());
+    return daemon.Run();
+  };
+
+  SECTION("reset in the middle: two missions") {
+    const DaemonSummary summary = run(20, "middle");
+    INFO(summary.report << summary.map_report);
+    CHECK(summary.map_saved);
+    CHECK(ReportCounter(summary.report, "filter_resets") == 1);
+    CHECK(ReportCounter(summary.report, "map_missions") == 2);
+    CHECK(ReportCounter(summary.report, "map_missions_dropped") == 0);
+    const mapstore::VIMap map = mapstore::LoadMap(dir + "/middle");
+    CHECK(mapstore::CheckMapConsistency(map).ok());
+    REQUIRE(map.mission_ids().size() == 2);
+    CHECK(map.mission(map.mission_ids()[0]).name == "small");
+    CHECK(map.mission(map.mission_ids()[1]).name == "small-1");
+    std::size_t vertices = 0;
+    for (const mapstore::MissionId& id : map.mission_ids()) {
+      CHECK(map.mission(id).complete);
+      CHECK(map.vertex_ids(id).size() >= 2);
+      CHECK(map.VertexChain(id).size() == map.vertex_ids(id).size());
+      for (const mapstore::EdgeId& e : map.edge_ids(id)) {
+        CHECK(map.vertex(map.edge(e).to).mission_id == id);  // nothing links the missions
+      }
+      vertices += map.vertex_ids(id).size();
+    }
+    CHECK(ReportCounter(summary.report, "map_vertices") == static_cast<long long>(vertices));
+    // The first mission is the one a run without reset makes (same seed, same id).
+    const DaemonSummary plain = run(-1, "plain");
+    const mapstore::VIMap single = mapstore::LoadMap(dir + "/plain");
+    REQUIRE(single.mission_ids().size() == 1);
+    CHECK(single.mission_ids()[0] == map.mission_ids()[0]);
+    CHECK(ReportCounter(plain.report, "map_missions") == 1);
+  }
+  SECTION("reset at the last frame: the new mission has < 2 vertices and is dropped") {
+    const DaemonSummary summary = run(39, "late");
+    INFO(summary.report << summary.map_report);
+    CHECK(summary.map_saved);
+    CHECK(ReportCounter(summary.report, "map_missions") == 2);
+    CHECK(ReportCounter(summary.report, "map_missions_dropped") == 1);
+    const mapstore::VIMap map = mapstore::LoadMap(dir + "/late");
+    REQUIRE(map.mission_ids().size() == 1);
+    CHECK(map.mission(map.mission_ids()[0]).name == "small");
+  }
   std::filesystem::remove_all(dir);
 }
 

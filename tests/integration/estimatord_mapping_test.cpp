@@ -1,18 +1,23 @@
 // Map building in vilma-estimatord as processes (docs/daemon.md "Map building"): --save-map on
 // an LCM log (a consistent, deterministic map), the live mission stream to vilma-mapstored with
 // kill -9 of mapstored (restart, retransmission, every vertex stored) and kill -9 of the daemon
-// (mapstored finalizes an incomplete mission that loads). LCM on loopback, ttl=0, a port per
-// test.
+// (mapstored finalizes an incomplete mission that loads), and a mission per odometry segment
+// when the filter resets (--fault-reset-filter-at). LCM on loopback, ttl=0, a port per test.
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "integration/process_util.h"
+#include "vilma/core/asl_dataset.h"
+#include "vilma/core/trajectory_eval.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"
 
@@ -250,6 +255,139 @@ TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplet
   WARN("kill -9 of the daemon: mapstored kept " << vertices << " vertices");
   CHECK(vertices >= 10);
   CHECK(stored.VertexChain(mission.id).size() == vertices);  // a prefix of the mission
+}
+
+// Position RMSE [m] of the vertices against the ground truth after one posyaw alignment
+// (yaw + translation, VIO's gauge) fitted to these vertices.
+double PosYawRmse(const VIMap& map, const std::vector<mapstore::VertexId>& vertices,
+                  const std::vector<GroundTruthState>& gt) {
+  std::vector<Eigen::Vector3d> p_G, p_E;
+  std::vector<Transformation> T_E_I;
+  for (const mapstore::VertexId& id : vertices) {
+    const mapstore::Vertex& v = map.vertex(id);
+    const auto it = std::lower_bound(gt.begin(), gt.end(), v.t_ns,
+                                     [](const GroundTruthState& g, int64_t t) { return g.t_ns < t; });
+    if (it == gt.end() || std::llabs(it->t_ns - v.t_ns) > 1000000) continue;  // within 1 ms
+    p_G.push_back(it->p_W_I);
+    p_E.push_back(v.T_M_I.translation());
+    T_E_I.push_back(v.T_M_I);
+  }
+  REQUIRE(p_G.size() == vertices.size());
+  const Alignment a = AlignPositionYaw(p_G, p_E);
+  double sum = 0.0;
+  for (std::size_t i = 0; i < p_G.size(); ++i) {
+    sum += (a.Apply(T_E_I[i]).translation() - p_G[i]).squaredNorm();
+  }
+  return std::sqrt(sum / static_cast<double>(p_G.size()));
+}
+
+// A filter reset in the middle of the log (frame 150 of 300, --fault-reset-filter-at): the
+// filter's frame M starts anew, so the map builder ends the mission and starts another. The
+// map has two missions, each one frame M (consistent with the ground truth after its own
+// alignment), no IMU edge between them, byte for byte the same on every run; streamed, both
+// missions are complete in mapstored with the local copy's ids.
+TEST_CASE("vilma-estimatord: a filter reset ends the mission; the next frames are a new mission",
+          "[integration][daemon][mapping]") {
+  if (!HaveBinaries()) return;
+  const RoomData& room = Room();
+  const std::vector<GroundTruthState> gt = AslDataset::Open(room.dataset).ground_truth();
+  REQUIRE(!gt.empty());
+  std::map<std::string, std::string> runs[3];
+  const std::string root = FreshDir("reset_store") + "/maps";
+  const std::string url = test::UniqueLcmUrl();
+  for (int run = 0; run < 3; ++run) {
+    // Runs 0 and 1: --save-map only; run 2 also streams to mapstored.
+    const std::string dir = FreshDir("reset" + std::to_string(run));
+    const std::string text = dir + "/daemon.out";
+    std::vector<std::string> args = {kDaemon, "--rig", room.dataset + "/rig.yaml", "--input-log",
+                                     room.log, "--save-map", dir + "/map",
+                                     "--fault-reset-filter-at", "150"};
+    std::unique_ptr<test::ChildProcess> store;
+    if (run == 2) {
+      store = std::make_unique<test::ChildProcess>(
+          std::vector<std::string>{kMapstored, "--root", root, "--lcm-url", url},
+          dir + "/mapstored.out");
+      REQUIRE(test::WaitForOutput(dir + "/mapstored.out", "ready", 5.0));
+      for (const std::string& a : {std::string("--config"), StreamingConfig(dir, "room_reset"),
+                                   std::string("--lcm-url"), url}) {
+        args.push_back(a);
+      }
+    } else {
+      for (const std::string& a : {std::string("--lcm-url"), "file://" + dir + "/odom.lcm?mode=w"}) {
+        args.push_back(a);
+      }
+    }
+    test::ChildProcess daemon(args, text);
+    const int status = daemon.Wait(90.0);
+    const std::string output = test::ReadTextFile(text);
+    INFO(output);
+    REQUIRE(status == 0);
+    CHECK(output.find("fault injection: filter reset at frame 150") != std::string::npos);
+    CHECK(ReportValue(output, "filter_resets") == 1);
+    CHECK(ReportValue(output, "map_missions") == 2);
+    CHECK(ReportValue(output, "map_missions_dropped") == 0);
+    CHECK(ReportValue(output, "map_frames_dropped") == 0);
+    CHECK(ReportValue(output, "map_imu_dropped") == 0);
+    runs[run] = FolderContents(dir + "/map");
+
+    const VIMap map = mapstore::LoadMap(dir + "/map");
+    const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
+    INFO(report.ToString());
+    CHECK(report.ok());
+    REQUIRE(map.mission_ids().size() == 2);
+    CHECK_FALSE(map.mission_ids()[0] == map.mission_ids()[1]);
+    std::size_t total = 0;
+    std::vector<mapstore::VertexId> all;
+    for (const mapstore::MissionId& id : map.mission_ids()) {
+      const mapstore::Mission& mission = map.mission(id);
+      CHECK(mission.complete);
+      const std::vector<mapstore::VertexId>& vertices = map.vertex_ids(id);
+      CHECK(vertices.size() >= 50);  // about 7 s of 10 Hz vertices each
+      CHECK(map.VertexChain(id).size() == vertices.size());
+      for (const mapstore::EdgeId& e : map.edge_ids(id)) {
+        // No edge (IMU or other) links the missions: a mission is one frame M.
+        CHECK(map.vertex(map.edge(e).from).mission_id == id);
+        CHECK(map.vertex(map.edge(e).to).mission_id == id);
+      }
+      total += vertices.size();
+      all.insert(all.end(), vertices.begin(), vertices.end());
+      if (run == 0) {
+        const double rmse = PosYawRmse(map, vertices, gt);
+        WARN("mission " << mission.name << " " << id.Hex() << ": " << vertices.size()
+                        << " vertices, " << map.landmark_ids(id).size()
+                        << " landmarks, posyaw ATE RMSE " << rmse << " m");
+        CHECK(rmse < 0.10);
+      }
+    }
+    CHECK(map.vertex(all[all.size() / 2]).t_ns < map.vertex(all.back()).t_ns);
+    CHECK(ReportValue(output, "map_vertices") == static_cast<long long>(total));
+    if (run == 0) {
+      // The same vertices as one mission (what the map held before missions were split).
+      WARN("both missions under one posyaw alignment: ATE RMSE " << PosYawRmse(map, all, gt) << " m");
+    }
+    if (run == 2) {
+      CHECK(output.find("2 of 2 missions complete in mapstored") != std::string::npos);
+      store->Signal(SIGTERM);
+      CHECK(store->Wait(5.0) == 0);
+      // Mission names: "room_reset", then "room_reset-1" (mapstored's folders).
+      const VIMap first = mapstore::LoadMap(root + "/room_reset");
+      const VIMap second = mapstore::LoadMap(root + "/room_reset-1");
+      const mapstore::MissionId ids[2] = {map.mission_ids()[0], map.mission_ids()[1]};
+      const VIMap* stored[2] = {&first, &second};
+      for (int k = 0; k < 2; ++k) {
+        REQUIRE(stored[k]->HasMission(ids[k]));
+        CHECK(stored[k]->mission(ids[k]).complete);
+        CHECK(stored[k]->mission(ids[k]).name == map.mission(ids[k]).name);
+        CHECK(stored[k]->vertex_ids(ids[k]) == map.vertex_ids(ids[k]));
+        CHECK(stored[k]->edge_ids(ids[k]) == map.edge_ids(ids[k]));
+        CHECK(stored[k]->landmark_ids(ids[k]) == map.landmark_ids(ids[k]));
+      }
+      CHECK(map.mission(ids[0]).name == "room_reset");
+      CHECK(map.mission(ids[1]).name == "room_reset-1");
+    }
+  }
+  REQUIRE(!runs[0].empty());
+  CHECK(runs[0] == runs[1]);  // every file, byte for byte
 }
 
 }  // namespace

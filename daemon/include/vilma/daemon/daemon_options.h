@@ -140,6 +140,8 @@ struct DaemonOptions {
   // Command line only (not in YAML).
   std::string input_log;  // read this lcm-logger file instead of subscribing (deterministic)
   int64_t fault_stall_filter_after = -1;  // test: the filter thread stalls after N frames
+  int64_t fault_reset_filter_at = -1;     // test: the filter resets at frame N (0-based count
+                                          // of frames given to the filter; a new mission)
 
   std::string Validate() const;  // empty if valid, else "field: expectation"
 };

@@ -63,6 +63,10 @@ class VioFilter {
   // One 8-bit grayscale image stamped in the camera clock. Initializes on the first frame
   // that has enough IMU data before it.
   FrameResult AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8);
+  // Makes the next frame that would pass the health checks fail them with `reason` instead:
+  // the same reset as a failed check (FrameResult::reset, re-initialization from the last
+  // pose). For fault injection and tests (vilma-estimatord --fault-reset-filter-at).
+  void RequestReset(const std::string& reason) { requested_reset_ = reason; }
 
   bool initialized() const { return initialized_; }
   const FilterState& state() const { return x_; }
@@ -107,6 +111,7 @@ class VioFilter {
   int frames_without_updates_ = 0;
   bool have_previous_reset_pose_ = false;
   Transformation reset_pose_;
+  std::string requested_reset_;  // RequestReset(): applied at the next health check
 
   // Preallocated work (hot loops are allocation-free after the first frames).
   ImagePyramid pyramid_;
