@@ -64,6 +64,7 @@ mapstore::VIMap LoadVIMapFolder(const std::string& dir) {
 
 struct BuildSummary {
   std::size_t missions = 0, vertices = 0, landmarks_total = 0, landmarks_good = 0;
+  localizer::LocalizationMapReport report;  // missions in the common frame G
   double load_ms = 0.0, build_ms = 0.0, train_ms = 0.0, index_ms = 0.0, save_ms = 0.0;
 };
 
@@ -112,7 +113,7 @@ int RunBuild(const std::vector<std::string>& args, std::ostream& out) {
   }
   t0 = std::chrono::steady_clock::now();
   auto map = std::make_shared<localizer::LocalizationMap>(
-      localizer::BuildLocalizationMap(vimap, options.map));
+      localizer::BuildLocalizationMap(vimap, options.map, &s.report));
   s.build_ms = MsSince(t0);
   if (map->num_landmarks() == 0 || map->num_descriptors() < 2) {
     throw InputError(FormatInputError(
@@ -141,6 +142,11 @@ int RunBuild(const std::vector<std::string>& args, std::ostream& out) {
       << "  VI-map           " << s.missions << (s.missions == 1 ? " mission, " : " missions, ")
       << s.vertices << " vertices, " << s.landmarks_good << " good of " << s.landmarks_total
       << " landmarks (loaded in " << s.load_ms << " ms)\n"
+      << "  missions used    " << s.report.missions_used << " of " << s.missions
+      << (s.report.missions_skipped > 0
+              ? " (the others are not anchored: their frames are unknown in G)"
+              : "")
+      << "\n"
       << "  options          " << (config_path.empty() ? "built-in defaults" : config_path)
       << " (map: min_observations " << options.map.min_observations
       << ", max_descriptors_per_landmark " << options.map.max_descriptors_per_landmark << ")\n"
@@ -211,9 +217,11 @@ std::shared_ptr<localizer::LocalizationMap> LoadOrBuildLocalizationMap(
   d << std::fixed << std::setprecision(0);
   if (fs::is_directory(path, ec)) {
     const mapstore::VIMap vimap = mapstore::LoadMap(path);
-    *map = localizer::BuildLocalizationMap(vimap, options);
+    localizer::LocalizationMapReport report;
+    *map = localizer::BuildLocalizationMap(vimap, options, &report);
     d << "VI-map folder, " << vimap.mission_ids().size()
-      << (vimap.mission_ids().size() == 1 ? " mission" : " missions") << ", summary built in "
+      << (vimap.mission_ids().size() == 1 ? " mission" : " missions") << " (" << report.missions_used
+      << " in the common frame G), summary built in "
       << MsSince(t0) << " ms";
   } else if (fs::is_regular_file(path, ec)) {
     *map = localizer::LoadLocalizationMap(path);

@@ -612,7 +612,14 @@ void EstimatorDaemon::Impl::SetUpLocalization() {
     localizer::LocalizerOptions lopt = lo.localizer_file.empty()
                                            ? localizer::LocalizerOptions()
                                            : localizer::LoadLocalizerOptions(lo.localizer_file);
-    *map = localizer::BuildLocalizationMap(vimap, lopt.map);
+    localizer::LocalizationMapReport report;
+    *map = localizer::BuildLocalizationMap(vimap, lopt.map, &report);
+    if (report.missions_skipped > 0) {
+      std::fprintf(stderr,
+                   "vilma-estimatord: localization map %s: %d of %zu missions used (the others "
+                   "are not anchored: their frames are unknown in G)\n",
+                   lo.map.c_str(), report.missions_used, vimap.mission_ids().size());
+    }
   } else if (fs::is_regular_file(lo.map, ec)) {
     *map = localizer::LoadLocalizationMap(lo.map);
   } else {

@@ -115,15 +115,31 @@ std::string LocalizationMap::Validate() const {
   return "";
 }
 
+std::vector<mapstore::MissionId> MissionsInCommonFrame(const mapstore::VIMap& map) {
+  std::vector<mapstore::MissionId> anchored;
+  for (const mapstore::MissionId& id : map.mission_ids()) {
+    if (map.mission(id).baseframe_known) anchored.push_back(id);
+  }
+  if (!anchored.empty()) return anchored;
+  if (map.mission_ids().empty()) return {};
+  return {map.mission_ids().front()};
+}
+
 LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
-                                     const LocalizationMapOptions& options) {
+                                     const LocalizationMapOptions& options,
+                                     LocalizationMapReport* report) {
   const std::string error = options.Validate();
   if (!error.empty()) throw InputError(FormatInputError("LocalizationMapOptions", "", error));
+  const std::vector<mapstore::MissionId> missions = MissionsInCommonFrame(map);
+  if (report != nullptr) {
+    report->missions_used = static_cast<int>(missions.size());
+    report->missions_skipped = static_cast<int>(map.mission_ids().size() - missions.size());
+  }
   LocalizationMap out;
   out.observer_begin.push_back(0);
   std::unordered_map<mapstore::VertexId, uint32_t, mapstore::IdHash> observer_of;
   bool bytes_known = false;
-  for (const mapstore::MissionId& mission_id : map.mission_ids()) {
+  for (const mapstore::MissionId& mission_id : missions) {
     for (const mapstore::LandmarkId& landmark_id : map.landmark_ids(mission_id)) {
       const mapstore::Landmark& landmark = map.landmark(landmark_id);
       if (landmark.quality != mapstore::LandmarkQuality::kGood) continue;

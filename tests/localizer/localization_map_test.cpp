@@ -13,21 +13,21 @@ namespace fs = std::filesystem;
 
 namespace {
 
-// One mission (T_G_M: translation (10, 0, 0), known), `vertices` vertices with one camera of
-// `vertices` keypoints each; landmark l is seen by keypoint l of every vertex; landmark quality
-// alternates good / bad / good / unknown. Keypoint k of vertex v has descriptor bytes 16 v + k.
-mapstore::VIMap MakeMap(int vertices) {
-  mapstore::VIMap map;
-  mapstore::IdGenerator ids(1);
+// Adds a mission with baseframe T_G_M = translation `t_G_M` (`anchored`: known) and `vertices`
+// vertices with one camera of `vertices` keypoints each; landmark l is seen by keypoint l of
+// every vertex; landmark quality alternates good / bad / good / unknown. Keypoint k of vertex v
+// has descriptor bytes 16 v + k.
+void AddTestMission(mapstore::VIMap* map, mapstore::IdGenerator* ids, int vertices, bool anchored,
+                    const Eigen::Vector3d& t_G_M) {
   mapstore::Mission mission;
-  mission.id = ids.Next();
-  mission.baseframe_known = true;
-  mission.T_G_M = Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(10, 0, 0));
-  map.AddMission(mission);
+  mission.id = ids->Next();
+  mission.baseframe_known = anchored;
+  mission.T_G_M = Transformation(Eigen::Quaterniond::Identity(), t_G_M);
+  map->AddMission(mission);
   std::vector<mapstore::VertexId> vertex_ids;
   for (int v = 0; v < vertices; ++v) {
     mapstore::Vertex vertex;
-    vertex.id = ids.Next();
+    vertex.id = ids->Next();
     vertex.mission_id = mission.id;
     vertex.T_M_I = Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0, v, 0));
     mapstore::VisualFrame frame;
@@ -39,22 +39,29 @@ mapstore::VIMap MakeMap(int vertices) {
     }
     vertex.frames.push_back(frame);
     vertex_ids.push_back(vertex.id);
-    map.AddVertex(vertex);
+    map->AddVertex(vertex);
   }
   const mapstore::LandmarkQuality q[] = {
       mapstore::LandmarkQuality::kGood, mapstore::LandmarkQuality::kBad,
       mapstore::LandmarkQuality::kGood, mapstore::LandmarkQuality::kUnknown};
   for (int l = 0; l < vertices; ++l) {
     mapstore::Landmark lm;
-    lm.id = ids.Next();
+    lm.id = ids->Next();
     lm.store_vertex_id = vertex_ids[0];
     lm.p_I = Eigen::Vector3d(l, 0, 1);
     lm.quality = q[l % 4];
-    map.AddLandmark(lm);
+    map->AddLandmark(lm);
     for (int v = 0; v < vertices; ++v) {
-      map.AddObservation(lm.id, {vertex_ids[v], 0, static_cast<uint32_t>(l)});
+      map->AddObservation(lm.id, {vertex_ids[v], 0, static_cast<uint32_t>(l)});
     }
   }
+}
+
+// One mission, anchored at T_G_M = translation (10, 0, 0).
+mapstore::VIMap MakeMap(int vertices) {
+  mapstore::VIMap map;
+  mapstore::IdGenerator ids(1);
+  AddTestMission(&map, &ids, vertices, true, Eigen::Vector3d(10, 0, 0));
   return map;
 }
 
@@ -121,4 +128,37 @@ TEST_CASE("localization map: save / load round trip and errors naming file and f
   map.descriptor_landmark.push_back(99);
   CHECK_THROWS_AS(SaveLocalizationMap(map, path), InputError);
   CHECK_FALSE(fs::exists(path));
+}
+
+TEST_CASE("localization map: only missions in one common frame G", "[localization]") {
+  // Two unanchored missions (the daemon's second mission after a filter reset): their frames
+  // are unrelated, so only the first one (M = G) is summarized.
+  mapstore::VIMap map;
+  mapstore::IdGenerator ids(3);
+  AddTestMission(&map, &ids, 8, false, Eigen::Vector3d::Zero());
+  AddTestMission(&map, &ids, 8, false, Eigen::Vector3d::Zero());
+  LocalizationMapReport report;
+  LocalizationMap loc = BuildLocalizationMap(map, {}, &report);
+  CHECK(report.missions_used == 1);
+  CHECK(report.missions_skipped == 1);
+  CHECK(loc.num_landmarks() == 4);  // 4 good landmarks of 8, of the first mission
+  REQUIRE(MissionsInCommonFrame(map).size() == 1);
+  CHECK(MissionsInCommonFrame(map).front() == map.mission_ids().front());
+  for (const mapstore::LandmarkId& id : loc.landmark_ids) {
+    CHECK(map.vertex(map.landmark(id).store_vertex_id).mission_id == map.mission_ids().front());
+  }
+
+  // Anchored missions share G: both anchored ones, the unanchored one skipped.
+  AddTestMission(&map, &ids, 8, true, Eigen::Vector3d(0, 0, 5));
+  map.mission(map.mission_ids()[1]).baseframe_known = true;
+  map.mission(map.mission_ids()[1]).T_G_M =
+      Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-5, 0, 0));
+  loc = BuildLocalizationMap(map, {}, &report);
+  CHECK(report.missions_used == 2);
+  CHECK(report.missions_skipped == 1);
+  CHECK(loc.num_landmarks() == 8);
+  // Positioned with their own T_G_M: landmark 2 of mission 1 at (2, 0, 1) + (-5, 0, 0), of
+  // mission 2 at (2, 0, 1) + (0, 0, 5).
+  CHECK(loc.p_G[1].isApprox(Eigen::Vector3d(-3, 0, 1)));
+  CHECK(loc.p_G[5].isApprox(Eigen::Vector3d(2, 0, 6)));
 }

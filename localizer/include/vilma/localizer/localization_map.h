@@ -53,10 +53,23 @@ struct LocalizationMap {
   std::string Validate() const;
 };
 
-// From every mission of the map: landmarks of quality good (unknown and bad are skipped),
-// positioned with their mission's T_G_M (identity unless anchored, see vi_map.h).
+// Which missions of a VI-map share the frame G, so that their landmarks can be summarized
+// together: the anchored missions (baseframe known: T_G_M is meaningful) when there is one;
+// else the FIRST mission alone, whose odometry frame M then is G (T_G_M = identity). An
+// unanchored mission after the first one (e.g. the daemon's new mission after a filter reset,
+// docs/daemon.md) has its own unknown frame: mixing its landmarks in would place them wrongly.
+std::vector<mapstore::MissionId> MissionsInCommonFrame(const mapstore::VIMap& map);
+
+struct LocalizationMapReport {
+  int missions_used = 0;
+  int missions_skipped = 0;  // not in the common frame (see MissionsInCommonFrame)
+};
+
+// From the missions of MissionsInCommonFrame(map): landmarks of quality good (unknown and bad
+// are skipped), positioned with their mission's T_G_M. `report` (optional) says which were used.
 LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
-                                     const LocalizationMapOptions& options = {});
+                                     const LocalizationMapOptions& options = {},
+                                     LocalizationMapReport* report = nullptr);
 
 // Binary little-endian file: magic "VLOCMAP1", format version, counts, arrays, then the CRC-32
 // of everything before it. Written atomically (temporary file, fsync, rename). Load throws
