@@ -637,7 +637,7 @@ EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
   for (ArgCursor arg(args); arg.Next();) {
     const std::string& name = arg.name();
     if (name == "--help" || name == "-h") {
-      o.help = true;
+      o.help = arg.Flag();
       continue;
     }
     const bool known = name == "--gt" || name == "--est" || name == "--align" ||

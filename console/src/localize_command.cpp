@@ -169,7 +169,7 @@ LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
     const std::string& a = arg.name();
     auto next = [&arg] { return arg.Value(); };
     if (a == "--help" || a == "-h") {
-      o.help = true;
+      o.help = arg.Flag();
     } else if (a == "--every") {
       o.every = ParsePositiveInt("--every", next(), 1);
     } else if (a == "--camera") {
@@ -194,7 +194,7 @@ LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
         throw UsageError("--align: expected none, posyaw or se3, got '" + v + "'");
       }
     } else if (a == "--quiet") {
-      o.quiet = true;
+      o.quiet = arg.Flag();
     } else if (a.rfind("-", 0) == 0) {
       throw UsageError("unknown option '" + a + "'");
     } else if (o.dataset.empty()) {

@@ -56,7 +56,7 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
     const std::string& a = arg.name();
     auto next = [&arg] { return arg.Value(); };
     if (a == "--help" || a == "-h") {
-      o.help = true;
+      o.help = arg.Flag();
     } else if (a == "--out") {
       o.out_path = next();
     } else if (a == "--config") {
@@ -70,7 +70,7 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
     } else if (a == "--map-config") {
       o.map_config_path = next();
     } else if (a == "--print-config") {
-      o.print_config = true;
+      o.print_config = arg.Flag();
     } else if (a == "--camera") {
       const std::string v = next();
       try {

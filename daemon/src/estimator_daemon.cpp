@@ -1135,15 +1135,16 @@ void EstimatorDaemon::Impl::FilterLoop() {
   int64_t loc_tracked_frames = 0;
   const double loc_rate = options.localization.max_rate_hz;
   const double camera_rate = rig.cameras[static_cast<std::size_t>(vio)].rate_hz;
-  // Live: a query when a full period 1 / max_rate_hz has passed, less half a camera period so
-  // that stamp jitter does not push the query one frame later (20 Hz camera, 2 Hz: every 10th
-  // frame, never more often than max_rate_hz).
-  const double half_camera_period_s = camera_rate > 0.0 ? 0.5 / camera_rate : 0.0;
+  // Every N-th tracking frame, N = ceil(camera rate / max_rate_hz): never more often than
+  // max_rate_hz (20 Hz / 2 Hz: every 10th; 25 Hz / 3 Hz: every 9th, 2.8 Hz).
+  // --input-log counts frames exactly; live waits (N - 1/2) camera periods since the last
+  // query, so that stamp jitter neither advances nor delays the query by a frame.
+  const int64_t loc_every_n = std::max<int64_t>(
+      1, camera_rate > 0.0 ? static_cast<int64_t>(std::ceil(camera_rate / loc_rate - 1e-9)) : 1);
   const int64_t loc_min_dt_ns =
-      std::max<int64_t>(0, std::llround((1.0 / loc_rate - half_camera_period_s) * 1e9));
-  // --input-log: exactly every N-th tracking frame, N from the camera and localization rates.
-  const int64_t loc_every_n =
-      std::max<int64_t>(1, std::llround(camera_rate > 0.0 ? camera_rate / loc_rate : 1.0));
+      camera_rate > 0.0
+          ? std::llround((static_cast<double>(loc_every_n) - 0.5) / camera_rate * 1e9)
+          : std::llround(1e9 / loc_rate);
   auto reset_global = [&] {
     ++epoch;
     if (global_frame.initialized()) Count(kLocTgmResets);
@@ -1468,7 +1469,9 @@ void EstimatorDaemon::Impl::FilterLoop() {
     // Live: a query may still be in the localizer. Its result is reported too (every attempt
     // gets its VILMA_LOC); bounded, the localizer runs at most one query (tens of ms).
     const int64_t deadline = SteadyNs() + 5 * 1000 * kMs;
-    while (loc_in_flight.load() > 0 && !stop.load() && SteadyNs() < deadline) {
+    // Not cut short by `stop`: live input ends by SIGTERM, which sets it, and the localizer
+    // thread finishes its query whatever `stop` says (it runs until filter_done).
+    while (loc_in_flight.load() > 0 && SteadyNs() < deadline) {
       notifier.PetWatchdog(SteadyNs());
       std::this_thread::sleep_for(std::chrono::microseconds(200));
     }

@@ -258,11 +258,16 @@ LocalizationMap LoadLocalizationMap(const std::string& path) {
       r.Array<uint8_t>("descriptors", n_descriptors * uint64_t{map.descriptor_bytes});
   const uint32_t rows = r.Pod<uint32_t>("projection.rows");
   const uint32_t cols = r.Pod<uint32_t>("projection.cols");
-  if (rows > 256 || (rows > 0 && cols != 8 * map.descriptor_bytes)) {
-    r.Fail("projection", "expected at most 256 rows of one column per descriptor bit");
+  // What DescriptorIndex accepts: an even number of rows (two halves for the multi-index) up
+  // to 64, one column per descriptor bit; 0 rows = no projection stored (trained at load).
+  if (rows > 64 || rows % 2 != 0 || (rows > 0 && cols != 8 * map.descriptor_bytes)) {
+    r.Fail("projection", "expected 0 or an even number up to 64 of rows, one column per "
+                         "descriptor bit (got " + std::to_string(rows) + " x " +
+                         std::to_string(cols) + ")");
   }
   map.projection.resize(rows, rows > 0 ? cols : 0);
   r.Raw("projection", map.projection.data(), sizeof(float) * map.projection.size());
+  if (!map.projection.allFinite()) r.Fail("projection", "expected finite values");
   if (r.pos() != bytes.size() - 4) r.Fail("", "expected the file to end after the projection");
   const std::string error = map.Validate();
   if (!error.empty()) r.Fail("", error);

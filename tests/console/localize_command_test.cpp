@@ -150,6 +150,8 @@ TEST_CASE("vilma localize parses its command line") {
   CHECK_THROWS_WITH(ParseLocalizeArgs({"D", "M", "--align", "sim3"}), Catch::Contains("--align"));
   CHECK_THROWS_WITH(ParseLocalizeArgs({"D", "M", "X"}), Catch::Contains("unexpected argument 'X'"));
   CHECK_THROWS_WITH(ParseLocalizeArgs({"D", "M", "--fast"}), Catch::Contains("unknown option"));
+  CHECK_THROWS_WITH(ParseLocalizeArgs({"D", "M", "--quiet=no"}), Catch::Contains("--quiet: takes no value"));
+  CHECK(ParseLocalizeArgs({"D", "M", "--every=5"}).every == 5);
   CHECK_THROWS_WITH(ParseLocalizeArgs({"D", "M", "--out"}), Catch::Contains("expected a value"));
 }
 

@@ -370,7 +370,8 @@ TEST_CASE("vilma-estimatord --localization-map live: replay over LCM -> VILMA_PO
   test::ChildProcess replay({kReplay, d.session1, "--rate", "2", "--lcm-url", url, "--quiet"},
                             d.dir + "/loc_live_replay.out");
   REQUIRE(replay.Wait(60.0) == 0);
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  // SIGTERM right away: the last frames are still in the pipeline and a query may be in the
+  // localizer; the daemon flushes, and every attempt must still get its VILMA_LOC.
   REQUIRE(daemon.running());
   daemon.Signal(SIGTERM);
   CHECK(daemon.Wait(10.0) == 0);

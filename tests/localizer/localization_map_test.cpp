@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <limits>
 
 #include "vilma/core/error.h"
 
@@ -124,6 +125,17 @@ TEST_CASE("localization map: save / load round trip and errors naming file and f
   CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains("version"));
   fs::remove(path);
   CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains(path));
+  // A projection the index cannot use (odd rows; non-finite values) is refused at load, naming
+  // the file and the field, not later by the index.
+  LocalizationMap odd = map;
+  odd.projection = Eigen::MatrixXf::Random(3, 512);
+  SaveLocalizationMap(odd, path);
+  CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains(path) && Catch::Contains("projection"));
+  LocalizationMap nan = map;
+  nan.projection(1, 7) = std::numeric_limits<float>::quiet_NaN();
+  SaveLocalizationMap(nan, path);
+  CHECK_THROWS_WITH(LoadLocalizationMap(path), Catch::Contains("projection") && Catch::Contains("finite"));
+  fs::remove(path);
   // An inconsistent map is not written.
   map.descriptor_landmark.push_back(99);
   CHECK_THROWS_AS(SaveLocalizationMap(map, path), InputError);

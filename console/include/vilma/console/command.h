@@ -56,6 +56,12 @@ class ArgCursor {
     if (next_ >= args_.size()) throw UsageError(name_ + ": expected a value");
     return args_[next_++];
   }
+  // For a flag (an option without a value): true, or UsageError "<name>: takes no value" when
+  // it came as "--name=value" (so that "--quiet=no" is not read as --quiet).
+  bool Flag() const {
+    if (has_inline_value_) throw UsageError(name_ + ": takes no value");
+    return true;
+  }
 
  private:
   const std::vector<std::string>& args_;
