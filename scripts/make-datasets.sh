@@ -28,6 +28,8 @@ SETS=(
 )
 # Bump when the simulator's output changes, so that old caches are remade.
 SIM_VERSION=1
+# Bump when GenerateRevisitTrajectory changes (only the revisiting sets are remade).
+REVISIT_VERSION=2
 
 repo_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 out_dir="${VILMA_CACHE:-$HOME/.cache/vilma}/datasets"
@@ -79,7 +81,7 @@ for line in "${SETS[@]}"; do
   key="version=$SIM_VERSION preset=$preset seed=$seed session=$session seconds=$seconds stereo=${stereo:+1}"
   revisit_args=()
   if [[ "$revisit" != "0" ]]; then
-    key="$key revisit=$revisit"
+    key="$key revisit=$revisit revisit_version=$REVISIT_VERSION"
     revisit_args=(--revisit "$revisit")
   fi
   dir="$out_dir/$name"

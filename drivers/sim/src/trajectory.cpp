@@ -394,7 +394,7 @@ Trajectory RevisitOnce(const World& world, const Trajectory& reference,
                                                 rng.Normal(0.0, revisit.height_offset_m));
     yaw_offset = a * yaw_offset + innovation * rng.Normal(0.0, revisit.yaw_offset_rad);
     p = place(u);
-    yaw = Lerp(ref_ang, u).x() + yaw_offset * ramp;
+    yaw = Lerp(ref_ang, u).x() + yaw_offset;  // the static start has the full offset too
     const double pitch = m.mean_pitch + m.roll_pitch_amplitude * rng.Uniform(-1.0, 1.0) * ramp;
     const double roll = m.roll_pitch_amplitude * rng.Uniform(-1.0, 1.0) * ramp;
     pos[i] = p;
