@@ -46,6 +46,22 @@
 namespace vilma::daemon {
 namespace {
 
+// Covariance of (R a, R b) when (a, b) has covariance C: A C A^T with A = diag(R, R) (a
+// position and a rotation error moved into another frame).
+Matrix6d RotateCovariance(const Eigen::Matrix3d& R, const Matrix6d& C) {
+  Matrix6d A = Matrix6d::Zero();
+  A.block<3, 3>(0, 0) = R;
+  A.block<3, 3>(3, 3) = R;
+  return A * C * A.transpose();
+}
+
+// Row-major copy into an LCM message's 36 doubles.
+void CopyRowMajor(const Matrix6d& C, double* out36) {
+  for (int i = 0; i < 6; ++i) {
+    for (int j = 0; j < 6; ++j) out36[6 * i + j] = C(i, j);
+  }
+}
+
 constexpr int64_t kMs = 1000000;  // [ns]
 
 int64_t SteadyNs() {
@@ -1210,14 +1226,7 @@ void EstimatorDaemon::Impl::FilterLoop() {
       // The localizer's covariance is of xi = [rho; phi] in T_G_I Exp(xi) (body, right). To
       // first order p = p_G_I + R rho and R_G_I Exp(phi) = Exp(R phi) R_G_I, so pose_t's
       // global (left) errors are (R rho, R phi): Cov = A C A^T with A = diag(R_G_I, R_G_I).
-      Matrix6d A = Matrix6d::Zero();
-      const Eigen::Matrix3d R_G_I = q.toRotationMatrix();
-      A.block<3, 3>(0, 0) = R_G_I;
-      A.block<3, 3>(3, 3) = R_G_I;
-      const Matrix6d C = A * res.covariance_I * A.transpose();
-      for (int i = 0; i < 6; ++i) {
-        for (int j = 0; j < 6; ++j) rec.covariance[6 * i + j] = C(i, j);
-      }
+      CopyRowMajor(RotateCovariance(q.toRotationMatrix(), res.covariance_I), rec.covariance);
     }
     const bool pushed = log_mode ? PushBlocking(output_queue, loc_out) : output_queue.push(loc_out);
     if (!pushed) {
@@ -1428,23 +1437,16 @@ void EstimatorDaemon::Impl::FilterLoop() {
             C.block<3, 3>(0, 3) = P.block<3, 3>(estimator::kIdxP, estimator::kIdxQ) * R.transpose();
             C.block<3, 3>(3, 0) = C.block<3, 3>(0, 3).transpose();
             C.block<3, 3>(3, 3) = R * P.block<3, 3>(estimator::kIdxQ, estimator::kIdxQ) * R.transpose();
-            for (int i = 0; i < 6; ++i) {
-              for (int j = 0; j < 6; ++j) out.covariance[6 * i + j] = C(i, j);
-            }
+            CopyRowMajor(C, out.covariance);
             if (out.global) {
               // Global error in G: rotate the M blocks with R_G_M, add the T_G_M covariance
               // (position; yaw on the z rotation). Cross terms between both neglected.
-              Matrix6d A = Matrix6d::Zero();
-              const Eigen::Matrix3d R_G_M = global_frame.T_G_M().rotation().toRotationMatrix();
-              A.block<3, 3>(0, 0) = R_G_M;
-              A.block<3, 3>(3, 3) = R_G_M;
-              Matrix6d G = A * C * A.transpose();
+              Matrix6d G =
+                  RotateCovariance(global_frame.T_G_M().rotation().toRotationMatrix(), C);
               const Eigen::Matrix4d P_gm = global_frame.covariance();
               G.block<3, 3>(0, 0) += P_gm.block<3, 3>(0, 0);
               G(5, 5) += P_gm(3, 3);
-              for (int i = 0; i < 6; ++i) {
-                for (int j = 0; j < 6; ++j) out.g_covariance[6 * i + j] = G(i, j);
-              }
+              CopyRowMajor(G, out.g_covariance);
             }
           }
         }
