@@ -21,6 +21,25 @@ bool PoseOf(const double position[3], const double orientation_wxyz[4], Transfor
   return true;
 }
 
+// Calls on_message(msg) for every message on `channel` that decodes as Msg, in log order;
+// counts the channel's events and the ones that do not decode.
+template <typename Msg, typename Fn>
+void ForEachMessage(const std::string& path, const std::string& channel,
+                    int64_t* events_on_channel, int64_t* malformed, Fn on_message) {
+  LcmLogReader reader(path);
+  LcmLogEvent event;
+  while (reader.Next(&event)) {
+    if (event.channel != channel) continue;
+    ++*events_on_channel;
+    Msg msg;
+    if (msg.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) {
+      ++*malformed;
+      continue;
+    }
+    on_message(msg);
+  }
+}
+
 }  // namespace
 
 Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
@@ -29,28 +48,17 @@ Trajectory ReadPoseLog(const std::string& path, const std::string& channel,
   PoseLogStats& s = stats != nullptr ? *stats : local;
   s = PoseLogStats();
   Trajectory trajectory;
-  LcmLogReader reader(path);
-  LcmLogEvent event;
-  while (reader.Next(&event)) {
-    if (event.channel != channel) continue;
-    ++s.events_on_channel;
-    pose_t msg;
-    if (msg.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) {
-      ++s.malformed;
-      continue;
-    }
+  ForEachMessage<pose_t>(path, channel, &s.events_on_channel, &s.malformed, [&](const pose_t& msg) {
     Transformation T;
     if (!PoseOf(msg.position, msg.orientation, &T)) {
       ++s.malformed;
-      continue;
-    }
-    if (!include_not_valid &&
-        (msg.status == pose_t::INVALID || msg.status == pose_t::INITIALIZING)) {
+    } else if (!include_not_valid &&
+               (msg.status == pose_t::INVALID || msg.status == pose_t::INITIALIZING)) {
       ++s.not_valid;
-      continue;
+    } else {
+      trajectory.Add(UtimeToNs(msg.utime), T);
     }
-    trajectory.Add(UtimeToNs(msg.utime), T);
-  }
+  });
   return trajectory;
 }
 
@@ -77,27 +85,19 @@ Trajectory ReadLocalizationLog(const std::string& path, const std::string& chann
   LocalizationLogStats& s = stats != nullptr ? *stats : local;
   s = LocalizationLogStats();
   Trajectory trajectory;
-  LcmLogReader reader(path);
-  LcmLogEvent event;
-  while (reader.Next(&event)) {
-    if (event.channel != channel) continue;
-    ++s.events_on_channel;
-    localization_t msg;
-    if (msg.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) {
-      ++s.malformed;
-      continue;
-    }
-    ++s.attempts;
-    if (msg.decision == "accepted") ++s.accepted;
-    if (msg.status != "ok") continue;
-    Transformation T;
-    if (!PoseOf(msg.position, msg.orientation, &T)) {
-      ++s.malformed;
-      continue;
-    }
-    ++s.with_pose;
-    trajectory.Add(UtimeToNs(msg.utime), T);
-  }
+  ForEachMessage<localization_t>(
+      path, channel, &s.events_on_channel, &s.malformed, [&](const localization_t& msg) {
+        ++s.attempts;
+        if (msg.decision == "accepted") ++s.accepted;
+        if (msg.status != "ok") return;
+        Transformation T;
+        if (!PoseOf(msg.position, msg.orientation, &T)) {
+          ++s.malformed;
+          return;
+        }
+        ++s.with_pose;
+        trajectory.Add(UtimeToNs(msg.utime), T);
+      });
   return trajectory;
 }
 
