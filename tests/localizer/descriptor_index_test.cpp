@@ -17,6 +17,27 @@ constexpr int kBytes = 64;
 
 using SyntheticDescriptors = vilma::localizer::testing::BriskLikeDescriptors;
 
+// `landmarks` latent landmarks, each observed `per` times: descriptor i belongs to landmark
+// labels[i] (drawn in that order from `gen`, so a seed fixes the set).
+struct SyntheticSet {
+  std::vector<Eigen::VectorXd> latent;
+  std::vector<uint8_t> descriptors;
+  std::vector<uint32_t> labels;
+};
+
+SyntheticSet MakeSyntheticSet(SyntheticDescriptors* gen, int landmarks, int per) {
+  SyntheticSet set;
+  set.descriptors.resize(static_cast<std::size_t>(landmarks) * per * kBytes);
+  for (int l = 0; l < landmarks; ++l) {
+    set.latent.push_back(gen->Latent());
+    for (int o = 0; o < per; ++o) {
+      gen->Observe(set.latent.back(), set.descriptors.data() + set.labels.size() * kBytes);
+      set.labels.push_back(static_cast<uint32_t>(l));
+    }
+  }
+  return set;
+}
+
 }  // namespace
 
 TEST_CASE("descriptor index: Hamming distance and sign vectors", "[localization]") {
@@ -39,16 +60,10 @@ TEST_CASE("descriptor index: recall of the true landmark in the top k with noisy
   // A map of 10000 landmarks x 3 observations, queries: a fresh noisy observation of 1000.
   SyntheticDescriptors gen(3, 0.25, 0.25);
   const int landmarks = 10000, per = 3;
-  std::vector<Eigen::VectorXd> latent;
-  std::vector<uint8_t> map_desc(static_cast<std::size_t>(landmarks) * per * kBytes);
-  std::vector<uint32_t> labels;
-  for (int l = 0; l < landmarks; ++l) {
-    latent.push_back(gen.Latent());
-    for (int o = 0; o < per; ++o) {
-      gen.Observe(latent[l], map_desc.data() + labels.size() * kBytes);
-      labels.push_back(l);
-    }
-  }
+  SyntheticSet set = MakeSyntheticSet(&gen, landmarks, per);
+  const std::vector<Eigen::VectorXd>& latent = set.latent;
+  const std::vector<uint8_t>& map_desc = set.descriptors;
+  const std::vector<uint32_t>& labels = set.labels;
   const Eigen::MatrixXf P = TrainProjectionMatrix(map_desc, kBytes, labels);
   REQUIRE(P.rows() == 16);
   REQUIRE(P.cols() == 512);
@@ -88,15 +103,9 @@ TEST_CASE("descriptor index: recall of the true landmark in the top k with noisy
 TEST_CASE("descriptor index: projection whitens the matching noise, bad input throws",
           "[localization]") {
   SyntheticDescriptors gen(5, 0.25, 0.25);
-  std::vector<uint8_t> d(2000 * 2 * kBytes);
-  std::vector<uint32_t> labels;
-  for (int l = 0; l < 2000; ++l) {
-    const Eigen::VectorXd z = gen.Latent();
-    for (int o = 0; o < 2; ++o) {
-      gen.Observe(z, d.data() + labels.size() * kBytes);
-      labels.push_back(l);
-    }
-  }
+  SyntheticSet set = MakeSyntheticSet(&gen, 2000, 2);
+  std::vector<uint8_t>& d = set.descriptors;
+  std::vector<uint32_t>& labels = set.labels;
   ProjectionTrainingOptions o;
   o.dimensions = 8;
   const Eigen::MatrixXf P = TrainProjectionMatrix(d, kBytes, labels, o);
@@ -202,16 +211,10 @@ TEST_CASE("descriptor index: reused search buffers give the results of fresh one
           "[localization]") {
   SyntheticDescriptors gen(19, 0.25, 0.25);
   const int landmarks = 3000;
-  std::vector<Eigen::VectorXd> latent;
-  std::vector<uint8_t> desc(static_cast<std::size_t>(landmarks) * 2 * kBytes);
-  std::vector<uint32_t> labels;
-  for (int l = 0; l < landmarks; ++l) {
-    latent.push_back(gen.Latent());
-    for (int o = 0; o < 2; ++o) {
-      gen.Observe(latent[l], desc.data() + labels.size() * kBytes);
-      labels.push_back(l);
-    }
-  }
+  const SyntheticSet set = MakeSyntheticSet(&gen, landmarks, 2);
+  const std::vector<Eigen::VectorXd>& latent = set.latent;
+  const std::vector<uint8_t>& desc = set.descriptors;
+  const std::vector<uint32_t>& labels = set.labels;
   const DescriptorIndex index(TrainProjectionMatrix(desc, kBytes, labels), desc.data(), kBytes,
                               labels.size());
   DescriptorSearchScratch scratch;
@@ -266,16 +269,10 @@ TEST_CASE("descriptor index: an exhaustive search is the exact ranking of every 
   // order of their projected distance (ties: lower index), with the right distances.
   SyntheticDescriptors gen(23, 0.25, 0.25);
   const int landmarks = 1500;
-  std::vector<Eigen::VectorXd> latent;
-  std::vector<uint8_t> desc(static_cast<std::size_t>(landmarks) * 2 * kBytes);
-  std::vector<uint32_t> labels;
-  for (int l = 0; l < landmarks; ++l) {
-    latent.push_back(gen.Latent());
-    for (int o = 0; o < 2; ++o) {
-      gen.Observe(latent[l], desc.data() + labels.size() * kBytes);
-      labels.push_back(l);
-    }
-  }
+  const SyntheticSet set = MakeSyntheticSet(&gen, landmarks, 2);
+  const std::vector<Eigen::VectorXd>& latent = set.latent;
+  const std::vector<uint8_t>& desc = set.descriptors;
+  const std::vector<uint32_t>& labels = set.labels;
   DescriptorIndexOptions options;
   options.codebook_size = 16;
   const DescriptorIndex index(TrainProjectionMatrix(desc, kBytes, labels), desc.data(), kBytes,
