@@ -120,6 +120,7 @@ std::vector<ResourceInfo> ResourceStore::List() const {
 void ResourceStore::ClearPending() {
   std::lock_guard<std::mutex> lock(mutex_);
   pending_.clear();
+  source_folders_.clear();  // everything is in folder_ now
 }
 
 void ResourceStore::SetCacheOptions(const ResourceCacheOptions& options) {
@@ -133,6 +134,40 @@ void ResourceStore::SetCacheOptions(const ResourceCacheOptions& options) {
     ++stats_.evictions;
     lru_index_.erase(lru_.back().first);
     lru_.pop_back();
+  }
+}
+
+std::unique_ptr<ResourceStore> ResourceStore::Clone() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto copy = std::make_unique<ResourceStore>(options_);
+  copy->folder_ = folder_;
+  copy->index_ = index_;
+  copy->pending_ = pending_;
+  copy->source_folders_ = source_folders_;
+  return copy;
+}
+
+void ResourceStore::MergeFrom(const ResourceStore& other) {
+  if (&other == this) return;
+  std::scoped_lock lock(mutex_, other.mutex_);
+  for (const auto& [key, info] : other.index_) {
+    auto mine = index_.find(key);
+    if (mine != index_.end() &&
+        (mine->second.crc32 != info.crc32 || mine->second.size_bytes != info.size_bytes)) {
+      throw std::invalid_argument("ResourceStore::MergeFrom: resource " + info.id.Hex() +
+                                  " exists in both maps with different content");
+    }
+  }
+  for (const auto& [key, info] : other.index_) {
+    if (index_.count(key) > 0) continue;  // identical resource already here
+    index_[key] = info;
+    auto pending = other.pending_.find(key);
+    if (pending != other.pending_.end()) {
+      pending_[key] = pending->second;
+      continue;
+    }
+    auto source = other.source_folders_.find(key);
+    source_folders_[key] = source != other.source_folders_.end() ? source->second : other.folder_;
   }
 }
 
@@ -176,9 +211,15 @@ std::shared_ptr<const std::string> ResourceStore::Load(ResourceType type,
     ++stats_.misses;
   }
   // Disk read outside the lock so that other threads' cache hits are not blocked.
-  const std::string path = (std::filesystem::path(folder_) / info.RelativePath()).string();
+  std::string folder = folder_;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto source = source_folders_.find(key);
+    if (source != source_folders_.end()) folder = source->second;
+  }
+  const std::string path = (std::filesystem::path(folder) / info.RelativePath()).string();
   auto bytes = std::make_shared<std::string>();
-  if (folder_.empty() || !ReadWholeFile(path, bytes.get())) {
+  if (folder.empty() || !ReadWholeFile(path, bytes.get())) {
     throw InputError(FormatInputError(path, "", "an existing resource file (listed in manifest.yaml)"));
   }
   if (bytes->size() != info.size_bytes) {

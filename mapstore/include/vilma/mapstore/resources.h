@@ -82,6 +82,13 @@ class ResourceStore {
   void ClearPending();
 
   void SetCacheOptions(const ResourceCacheOptions& options);
+  // Copies index, folder and pending bytes (shared, immutable) into a new store with an empty
+  // cache.
+  std::unique_ptr<ResourceStore> Clone() const;
+  // Takes over `other`'s index and pending bytes; `other`'s saved resources keep being read
+  // from `other`'s folder until the merged map is saved. Throws std::invalid_argument
+  // (nothing changed) when a resource id exists in both with other content.
+  void MergeFrom(const ResourceStore& other);
   ResourceCacheStats cache_stats() const;
 
  private:
@@ -95,6 +102,8 @@ class ResourceStore {
   std::string folder_;
   std::map<Key, ResourceInfo> index_;
   std::map<Key, std::shared_ptr<const std::string>> pending_;
+  // Resources that came from another map folder by MergeFrom: read from there, not folder_.
+  std::map<Key, std::string> source_folders_;
 
   mutable std::mutex mutex_;
   // LRU: most recently used at the front.

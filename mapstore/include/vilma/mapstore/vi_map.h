@@ -13,6 +13,7 @@
 #include <memory>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 #include <vector>
 
 #include "vilma/core/geometry.h"
@@ -146,6 +147,45 @@ class VIMap {
   // Adds an observation to the landmark and sets the vertex keypoint's landmark id, keeping
   // both directions of the reference in step. The vertex frame/keypoint must exist.
   void AddObservation(const LandmarkId& landmark_id, const LandmarkObservation& observation);
+
+  // --- editing (offline tools: keyframing, landmark removal, mission removal, merge) ---
+  // Every edit keeps both directions of the landmark <-> keypoint reference in step and the
+  // per-mission id lists in insertion order. Batch forms take sets so that removing many
+  // elements is linear in the map, not quadratic.
+  using IdSet = std::unordered_set<Id, IdHash>;
+
+  // Removes one observation from its landmark and clears the keypoint's landmark id. A
+  // landmark left without observations stays (callers remove orphans they create).
+  void RemoveObservation(const LandmarkId& landmark_id, const LandmarkObservation& observation);
+  // Removes landmarks and clears the landmark id of every keypoint that observed them.
+  void RemoveLandmarks(const IdSet& landmark_ids);
+  void RemoveLandmark(const LandmarkId& id) { RemoveLandmarks({id}); }
+  // Removes edges (any type).
+  void RemoveEdges(const IdSet& edge_ids);
+  void RemoveEdge(const EdgeId& id) { RemoveEdges({id}); }
+  // Removes vertices and the observations they make (landmarks keep their other observations;
+  // orphans stay for the caller). Throws std::invalid_argument (nothing changed) when an edge
+  // still refers to one of them, a landmark is still stored in one of them, or one is its
+  // mission's root vertex: callers re-link edges, move landmarks and set the root first.
+  void RemoveVertices(const IdSet& vertex_ids);
+  void RemoveVertex(const VertexId& id) { RemoveVertices({id}); }
+  // Moves a landmark's store to another vertex (of any mission) keeping its position in G
+  // (p_I re-expressed: p_I' = T_G_I'^-1 T_G_I p_I).
+  void SetLandmarkStoreVertex(const LandmarkId& landmark_id, const VertexId& new_store_vertex);
+  // Removes a mission with its vertices, edges and landmarks. Observations its vertices made
+  // of other missions' landmarks are removed from those landmarks; keypoints of other
+  // missions that observed its landmarks lose their landmark id; edges of other missions that
+  // point into it (loop closures) are removed.
+  void RemoveMission(const MissionId& id);
+  // Moves every mission, vertex, edge, landmark and resource of `other` into this map (missions
+  // appended in `other`'s order). Throws std::invalid_argument naming the id, with this map
+  // unchanged, when an id of `other` is already used here (the same mission loaded twice).
+  void MergeFrom(VIMap&& other);
+
+  // A deep copy (resources: the same index and pending bytes, an empty cache). Console
+  // commands that modify a map work on a clone and swap it in on success, so that a failed or
+  // cancelled command leaves the loaded map as it was.
+  VIMap Clone() const;
 
   // --- access ---
   bool HasMission(const MissionId& id) const;
