@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "vilma/console/command.h"
+#include "vilma/console/console_main.h"
 #include "vilma/console/eval_command.h"
 #include "vilma/console/kitti_command.h"
 #include "vilma/console/localize_command.h"
@@ -27,6 +28,8 @@ struct Subcommand {
 };
 
 const Subcommand kSubcommands[] = {
+    {"console", "the map console: load, merge, optimize, keyframe, export maps (interactive or batch)",
+     &vilma::console::RunConsoleCommand},
     {"eval", "trajectory error (ATE, RPE) of an estimate against ground truth",
      &vilma::console::RunEvalCommand},
     {"localize", "offline map check: localize every Nth frame of a dataset against a map",

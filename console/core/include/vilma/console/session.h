@@ -63,6 +63,7 @@ class ConsoleSession {
   ScriptResult RunScript(const std::string& text, const std::string& source_name);
 
   MapStore& maps() { return maps_; }
+  const MapStore& maps() const { return maps_; }
   const CommandRegistry& registry() const { return registry_; }
   SessionOptions& options() { return options_; }
 
