@@ -95,22 +95,27 @@ void ConsoleSession::RegisterBuiltins() {
                       }
                       PrintCommandHelp(*c, context.session(), context.out());
                     }));
-  registry_.Add(Command<SetOptions>("set")
+  registry_.Add(Command<NoOptions>("set")
                     .Group("console")
-                    .Summary("set a flag's default for the rest of the session (set NAME VALUE)")
-                    .Flag("name", &SetOptions::name, "flag name (without --)")
-                    .Flag("value", &SetOptions::value, "value")
-                    .Positional("name")
-                    .Positional("value")
-                    .Run([](CommandContext& context, const SetOptions& o) {
-                      if (o.name.empty()) throw CommandError("usage: set NAME VALUE");
-                      std::string name = o.name;
-                      std::string value = o.value;
+                    .Summary("set a flag's default for the rest of the session: set NAME VALUE "
+                             "or set --NAME=VALUE")
+                    .Usage("NAME VALUE")
+                    .RawWords()
+                    .Run([](CommandContext& context, const NoOptions&) {
+                      const auto& words = context.positional();
+                      if (words.empty() || words.size() > 2) {
+                        throw CommandError("usage: set NAME VALUE");
+                      }
+                      std::string name = words[0];
+                      std::string value = words.size() > 1 ? words[1] : "";
                       if (name.rfind("--", 0) == 0) name = name.substr(2);
                       const std::size_t eq = name.find('=');
                       if (eq != std::string::npos) {  // set --name=value
+                        if (words.size() > 1) throw CommandError("usage: set NAME VALUE");
                         value = name.substr(eq + 1);
                         name.resize(eq);
+                      } else if (words.size() < 2) {
+                        throw CommandError("usage: set NAME VALUE");
                       }
                       context.session().SetDefault(name, value);
                       context.out() << "--" << name << "=" << value << " for this session\n";

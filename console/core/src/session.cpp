@@ -296,7 +296,7 @@ void ConsoleSession::RunCommand(const CommandSpec& spec, const std::vector<std::
     };
     for (std::size_t i = 1; i < words.size(); ++i) {
       const std::string& w = words[i];
-      if (w.rfind("--", 0) != 0 || w.size() == 2) {
+      if (spec.raw_words || w.rfind("--", 0) != 0 || w.size() == 2) {
         positional.push_back(w);
         continue;
       }

@@ -113,6 +113,8 @@ struct CommandSpec {
   std::vector<FlagSpec> flags;
   // Flags that the first positional words fill, in order (e.g. load's map_folder).
   std::vector<std::string> positional_flags;
+  // Every word is positional, "--x=y" included (for `set --name=value`).
+  bool raw_words = false;
   // Runs with the flag values given on the command line or by the session, by flag name
   // (already type-checked); flags that are absent take the options struct's default.
   std::function<void(CommandContext&, const std::map<std::string, std::string>&)> run;
@@ -151,6 +153,12 @@ class Command {
   // The next positional word fills this flag (declared with Flag before or after).
   Command& Positional(std::string flag_name) {
     spec_.positional_flags.push_back(std::move(flag_name));
+    return *this;
+  }
+
+  // Words starting with "--" are not this command's flags but positional words.
+  Command& RawWords() {
+    spec_.raw_words = true;
     return *this;
   }
 

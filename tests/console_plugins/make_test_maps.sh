@@ -1,0 +1,24 @@
+#!/usr/bin/env bash
+# Makes the console tests' small real maps: two 10 s sessions of the simulated room (session 1
+# revisits session 0's path under other lighting), each mapped by vilma-estimatord from its LCM
+# log with --save-map, as a robot would map them. Deterministic (fixed seeds, --input-log).
+#   make_test_maps.sh BIN_DIR OUT_DIR
+# Writes OUT_DIR/datasets/session{0,1} (ASL, ground truth), OUT_DIR/maps/session{0,1} (map
+# folders) and OUT_DIR/done last.
+set -euo pipefail
+bin=$1
+out=$2
+rm -rf "$out"
+mkdir -p "$out/datasets" "$out/maps" "$out/work"
+for s in 0 1; do
+  args=(room --out "$out/datasets/session$s" --seconds 10 --seed 3)
+  [ "$s" -gt 0 ] && args+=(--session "$s" --revisit 0)
+  "$bin/vilma-sim" "${args[@]}" > "$out/work/sim$s.out" 2>&1
+  "$bin/vilma-replay" "$out/datasets/session$s" --to-log "$out/work/session$s.lcmlog" --quiet \
+    > "$out/work/replay$s.out" 2>&1
+  "$bin/vilma-estimatord" --rig "$out/datasets/session$s/rig.yaml" \
+    --input-log "$out/work/session$s.lcmlog" --lcm-url "file://$out/work/odom$s.lcm?mode=w" \
+    --save-map "$out/maps/session$s" > "$out/work/daemon$s.out" 2>&1
+done
+rm -f "$out"/work/*.lcmlog
+touch "$out/done"
