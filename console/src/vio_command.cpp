@@ -18,6 +18,7 @@
 #include "vilma/core/trajectory.h"
 #include "vilma/estimator/vio_filter.h"
 #include "vilma/mapping/map_builder.h"
+#include "vilma/mapstore/id.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"
 
@@ -159,7 +160,9 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
         }
       }
       builder = std::make_unique<mapping::MapBuilder>(
-          rig, map_options, /*mission_seed=*/1,
+          rig, map_options,
+          // From the IMU file: deterministic per dataset, distinct across sessions.
+          mapstore::SeedFromFileContent(o.dataset + "/mav0/imu0/data.csv"),
           std::filesystem::path(o.dataset).lexically_normal().filename().string());
       camera_frames.resize(rig.cameras.size());
       for (std::size_t c = 0; c < rig.cameras.size() && c < dataset.cameras().size(); ++c) {

@@ -760,7 +760,9 @@ void EstimatorDaemon::Impl::SetUpMapping() {
   uint64_t seed = m.mission_seed;
   if (seed == 0) {
     if (log_mode) {
-      seed = 1;
+      // From the log's content: the same log gives the same ids, two sessions' logs give
+      // missions that can be merged (distinct ids).
+      seed = mapstore::SeedFromFileContent(options.input_log);
     } else {
       std::random_device device;
       seed = (static_cast<uint64_t>(device()) << 32) ^ device();

@@ -1,5 +1,11 @@
 #include "vilma/mapstore/id.h"
 
+#include <fstream>
+#include <vector>
+
+#include "vilma/core/error.h"
+#include "vilma/mapstore/checksum.h"
+
 #include <random>
 
 namespace vilma {
@@ -60,6 +66,25 @@ Id IdGenerator::Next() {
     id.lo = NextWord();
   } while (!id.IsValid());
   return id;
+}
+
+uint64_t SeedFromFileContent(const std::string& path, uint64_t max_bytes) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(FormatInputError(path, "", "a readable file (to seed the mission ids)"));
+  in.seekg(0, std::ios::end);
+  const uint64_t size = static_cast<uint64_t>(in.tellg());
+  in.seekg(0, std::ios::beg);
+  std::vector<char> head(static_cast<std::size_t>(std::min(size, max_bytes)));
+  if (!head.empty() && !in.read(head.data(), static_cast<std::streamsize>(head.size()))) {
+    throw InputError(FormatInputError(path, "", "a readable file (to seed the mission ids)"));
+  }
+  // splitmix64 finalizer over (crc, size) so that the seed's bits are all mixed.
+  uint64_t z = (static_cast<uint64_t>(Crc32(head.data(), head.size())) << 32) ^ size;
+  z += 0x9E3779B97F4A7C15ULL;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  z ^= z >> 31;
+  return z == 0 ? 1 : z;
 }
 
 }  // namespace mapstore

@@ -1,5 +1,7 @@
 #include <catch2/catch.hpp>
 
+#include <filesystem>
+#include <fstream>
 #include <set>
 
 #include "vilma/mapstore/id.h"
@@ -41,4 +43,19 @@ TEST_CASE("id hex round trip and rejects", "[mapstore]") {
   CHECK_FALSE(Id::FromHex("0123", &back));
   CHECK_FALSE(Id::FromHex("0123456789abcdeffedcba987654321g", &back));
   CHECK_FALSE(Id().IsValid());
+}
+
+TEST_CASE("SeedFromFileContent: same content, same seed; other content, other seed") {
+  const std::string dir = std::filesystem::temp_directory_path() / "vilma_seed_test";
+  std::filesystem::create_directories(dir);
+  std::ofstream(dir + "/a") << "session zero IMU";
+  std::ofstream(dir + "/b") << "session zero IMU";
+  std::ofstream(dir + "/c") << "session one IMU!";
+  const uint64_t a = vilma::mapstore::SeedFromFileContent(dir + "/a");
+  CHECK(a != 0);
+  CHECK(a == vilma::mapstore::SeedFromFileContent(dir + "/b"));
+  CHECK(a != vilma::mapstore::SeedFromFileContent(dir + "/c"));
+  CHECK_THROWS_WITH(vilma::mapstore::SeedFromFileContent(dir + "/missing"),
+                    Catch::Contains(dir + "/missing"));
+  std::filesystem::remove_all(dir);
 }

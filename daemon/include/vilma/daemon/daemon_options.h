@@ -70,8 +70,8 @@ struct MappingOptions {
   std::string map_builder_file;
   mapping::MapBuilderOptions map_builder;
   std::string mission_name;  // name of the mission (mapstored's folder name; "" = the id)
-  // Seed of the mission id (and of every id in it). 0: random in live mode, 1 with
-  // --input-log (deterministic maps).
+  // Seed of the mission id (and of every id in it). 0: random in live mode, from the log's
+  // content with --input-log (deterministic maps; different logs give different ids).
   uint64_t mission_seed = 0;
   // Save the mission into this folder at the end (end of log or SIGTERM); "" = do not save.
   // --save-map DIR sets it (and enabled). The folder must not hold a map yet.

@@ -42,6 +42,12 @@ struct IdHash {
   }
 };
 
+// A seed for IdGenerator from a file's content (CRC-32 of its first `max_bytes` bytes and its
+// size), never 0: offline runs of the same input give the same ids, runs of different inputs
+// (two sessions replayed from their logs) give different ones. Throws InputError naming the
+// file when it cannot be read.
+uint64_t SeedFromFileContent(const std::string& path, uint64_t max_bytes = 4u << 20);
+
 // Deterministic generator of well-mixed ids: splitmix64 (Steele et al., "Fast splittable
 // pseudorandom number generators", OOPSLA 2014) over a 64-bit counter state.
 class IdGenerator {
