@@ -100,9 +100,18 @@ int RunRepl(ConsoleSession* session, const std::string& history_path, std::ostre
     const std::string prompt = "vilma:" + (key.empty() ? std::string("-") : key) + "> ";
     g_cancel_requested.store(false);
     char* raw = readline(prompt.c_str());
+    if (raw == nullptr && g_cancel_requested.load()) {  // Ctrl-C at the prompt: a new line
+      out << "\n";
+      continue;
+    }
     if (raw == nullptr) {  // Ctrl-D
       out << "\n";
       break;
+    }
+    if (g_cancel_requested.load()) {  // Ctrl-C while typing: drop the line
+      std::free(raw);
+      out << "\n";
+      continue;
     }
     const std::string line(raw);
     std::free(raw);
