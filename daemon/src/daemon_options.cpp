@@ -340,4 +340,26 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
   return out.str();
 }
 
+int RequiredImagePoolSlots(const DaemonOptions& options, int num_cameras) {
+  const int frames = options.mapping.enabled
+                         ? num_cameras * (options.sync.max_pending_frames + 2 +
+                                          options.queues.max_frames_in_flight + 1 +
+                                          options.mapping.max_frames_in_flight) +
+                               2
+                         : num_cameras * (options.sync.max_pending_frames + 2) +
+                               options.queues.max_frames_in_flight + 2;
+  const int localization = options.localization.enabled ? 2 : 0;
+  return frames + localization;
+}
+
+std::string ImagePoolRuleText(const DaemonOptions& options, int num_cameras) {
+  std::string rule =
+      options.mapping.enabled
+          ? ">= cameras x (sync.max_pending_frames + max_frames_in_flight + "
+            "mapping.max_frames_in_flight + 3) + 2"
+          : ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2";
+  if (options.localization.enabled) rule += " + 2 (localization)";
+  return rule + " = " + std::to_string(RequiredImagePoolSlots(options, num_cameras));
+}
+
 }  // namespace vilma::daemon

@@ -559,24 +559,10 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   // included) hold theirs too.
   mapping_enabled = options.mapping.enabled;
   localization_enabled = options.localization.enabled;
-  // LOC mode: one image in the localizer (one query in flight) and one held by the filter
-  // while it decides.
-  const int needed_loc = localization_enabled ? 2 : 0;
-  const int needed = needed_loc +
-      mapping_enabled
-          ? num_cameras * (options.sync.max_pending_frames + 2 +
-                           options.queues.max_frames_in_flight + 1 +
-                           options.mapping.max_frames_in_flight) + 2
-          : num_cameras * (options.sync.max_pending_frames + 2) +
-                options.queues.max_frames_in_flight + 2;
+  const int needed = RequiredImagePoolSlots(options, num_cameras);
   if (options.queues.image_pool_slots < needed) {
-    throw InputError(FormatInputError(
-        "daemon options", "queues.image_pool_slots",
-        mapping_enabled
-            ? ">= cameras x (sync.max_pending_frames + max_frames_in_flight + "
-              "mapping.max_frames_in_flight + 3) + 2 = " + std::to_string(needed)
-            : ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2 = " +
-                  std::to_string(needed)));
+    throw InputError(FormatInputError("daemon options", "queues.image_pool_slots",
+                                      ImagePoolRuleText(options, num_cameras)));
   }
   pool = std::make_unique<ImagePool>(options.queues.image_pool_slots, slot_bytes);
   try {

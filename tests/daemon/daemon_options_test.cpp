@@ -228,3 +228,26 @@ TEST_CASE("the VILMA_LOC channel is configurable and validated", "[daemon][local
 
 }  // namespace
 }  // namespace vilma::daemon
+
+TEST_CASE("image pool slots: mapping, localization and cameras add up (the LOC slots count)") {
+  vilma::daemon::DaemonOptions o;
+  o.sync.max_pending_frames = 8;
+  o.queues.max_frames_in_flight = 2;
+  o.mapping.max_frames_in_flight = 2;
+  o.mapping.enabled = false;
+  o.localization.enabled = false;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 1) == 1 * (8 + 2) + 2 + 2);
+  o.localization.enabled = true;  // LOC alone: the VIO rule + 2 (was: the mapping rule)
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 1) == 14 + 2);
+  o.mapping.enabled = true;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 1) == 1 * (8 + 2 + 2 + 1 + 2) + 2 + 2);
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 2 * 15 + 2 + 2);
+  o.localization.enabled = false;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 32);
+  CHECK_THAT(vilma::daemon::ImagePoolRuleText(o, 2), Catch::EndsWith(" = 32"));
+  // The defaults hold stereo with mapping and LOC.
+  vilma::daemon::DaemonOptions defaults;
+  defaults.mapping.enabled = true;
+  defaults.localization.enabled = true;
+  CHECK(defaults.queues.image_pool_slots >= vilma::daemon::RequiredImagePoolSlots(defaults, 2));
+}

@@ -38,7 +38,7 @@ struct QueueOptions {
   // Preallocated image buffers [count]. An image that finds no free slot is dropped
   // (images_dropped_pool); the slots are recycled when the filter (or the synchronizer that
   // dropped the frame) releases the image.
-  int image_pool_slots = 32;
+  int image_pool_slots = 40;  // RequiredImagePoolSlots: stereo + mapping + LOC needs 34
   // Frames queued for the filter at most [count]; beyond, the sync stage thins frames
   // (frames_dropped_busy) instead of building up latency. IMU samples are always forwarded.
   int max_frames_in_flight = 2;
@@ -152,5 +152,15 @@ DaemonOptions ParseDaemonOptions(const std::string& yaml_text, const std::string
 DaemonOptions ReadDaemonOptions(const YamlNode& root);
 // The effective options (YAML, same layout as config/daemon.yaml with the estimator inline).
 std::string DaemonOptionsToYaml(const DaemonOptions& options);
+
+// Image pool slots the pipeline can hold at once with `num_cameras` cameras: the
+// synchronizer's pending frames and the frames queued for the filter; with map building the
+// frames the filter holds and those queued for the builder hold every camera's image; in LOC
+// mode one image in the localizer (one query in flight) and one held by the filter while it
+// decides. With fewer slots, the log mode's blocking input could wait for a slot that only
+// newer input would free.
+int RequiredImagePoolSlots(const DaemonOptions& options, int num_cameras);
+// ">= <rule> = N": the expectation of the queues.image_pool_slots error.
+std::string ImagePoolRuleText(const DaemonOptions& options, int num_cameras);
 
 }  // namespace vilma::daemon
