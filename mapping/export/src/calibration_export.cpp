@@ -31,7 +31,7 @@ CalibrationExportSummary ExportCalibrations(const mapstore::VIMap& map,
                                             const CalibrationExportOptions& options) {
   ThrowIfInvalid(options.Validate(), "export_ncamera_calibration");
   const std::vector<MissionId> missions =
-      export_files::MissionsToExport(map, options.missions, "map_mission");
+      export_files::MissionsToExport(map, options.missions, "mission");
   std::vector<std::string> texts;
   CalibrationExportSummary summary;
   for (const MissionId& id : missions) {

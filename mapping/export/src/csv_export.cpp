@@ -85,7 +85,7 @@ std::map<std::string, std::string> MakeCsvFiles(const VIMap& map, const CsvExpor
                                                 ProgressObserver* progress) {
   ThrowIfInvalid(options.Validate(), "csv_export");
   const std::vector<MissionId> missions =
-      export_files::MissionsToExport(map, options.missions, "map_mission");
+      export_files::MissionsToExport(map, options.missions, "mission");
   std::unordered_set<Id, IdHash> vertex_set, landmark_set;
   std::size_t total_vertices = 0;
   for (const MissionId& m : missions) {

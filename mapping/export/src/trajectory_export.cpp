@@ -225,7 +225,7 @@ TrajectoryExportSummary ExportTrajectories(const VIMap& map,
   ExportFrame frame;
   ParseExportFrame(options.frame, &frame);
   const std::vector<MissionId> missions =
-      export_files::MissionsToExport(map, options.missions, "map_mission");
+      export_files::MissionsToExport(map, options.missions, "mission");
 
   TrajectoryExportSummary summary;
   summary.format = TrajectoryExportFormatName(format);
