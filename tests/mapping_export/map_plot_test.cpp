@@ -243,6 +243,23 @@ TEST_CASE("plot_map selects missions and views", "[map_plot]") {
   }
 }
 
+TEST_CASE("plot_map fits a long title and long mission names into the picture", "[map_plot]") {
+  auto test_map = MakePictureTestMap();
+  test_map.map.mission(test_map.map.mission_ids()[0]).name = std::string(150, 'n');
+  MapPlotOptions options;
+  options.width_px = 400;
+  options.height_px = 400;
+  options.title = std::string(120, 'T');
+  const MapPlot plot = RenderMapPlot(test_map.map, options);
+  // Nothing drawn in the last three columns above the first view (title and legend).
+  const cv::Mat strip = plot.image(cv::Rect(397, 0, 3, plot.views[0].panel_px.y - 10));
+  CHECK(cv::countNonZero(strip.reshape(1) != 255) == 0);
+  // Without the long texts, the same region has text in it (the check can fail).
+  const MapPlot normal = RenderMapPlot(MakePictureTestMap().map, MapPlotOptions{});
+  CHECK(cv::countNonZero(normal.image(cv::Rect(0, 0, 400, normal.views[0].panel_px.y - 10))
+                             .reshape(1) != 255) > 0);
+}
+
 TEST_CASE("plot_map refuses bad options and output paths with a clear message", "[map_plot]") {
   MapPlotOptions options;
   CHECK(options.Validate().empty());

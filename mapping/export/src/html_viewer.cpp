@@ -269,7 +269,7 @@ std::string RenderHtmlViewer(const VIMap& map, const HtmlViewerOptions& options,
                  "],\"q_I_C\":" + q_I_C + "],\"corners\":[" + corners + "]}";
     }
     json += std::string(mi > 0 ? "," : "") + "{\"id\":\"" + mission.id.Hex() +
-            "\",\"name\":" + JsonString(mission.name.empty() ? "mission" : mission.name) +
+            "\",\"name\":" + JsonString(mission.name) +
             ",\"color\":\"" + Hex(MissionColorRgb(MissionIndex(map, mission.id))) +
             "\",\"baseframe_known\":" + (mission.baseframe_known ? "true" : "false") +
             ",\"path_length_m\":" + Number(length_m, 3) + ",\"t0_ns\":\"" +

@@ -253,6 +253,11 @@ html, body { margin: 0; height: 100%; overflow: hidden; background: #ffffff;
   document.getElementById('counts').textContent = data.missions.length + ' mission(s), ' +
     nVertices + ' vertices, ' + L.embedded + ' of ' + L.total + ' landmarks (' + L.qualities +
     '), ' + data.loop_closures.length + ' loop closure(s); frame G; three.js r' + THREE.REVISION;
+  // "name (id8)", or "mission id8" for a mission without a name.
+  function missionLabel(m) {
+    var id = m.id.substring(0, 8);
+    return m.name ? m.name + ' (' + id + ')' : 'mission ' + id;
+  }
   // Visibility: an object shows when its layer is on and, for per-mission objects, its
   // mission is on.
   var layerShown = { trajectories: true, vertices: true, landmarks: true, loops: true,
@@ -284,7 +289,7 @@ html, body { margin: 0; height: 100%; overflow: hidden; background: #ffffff;
     var swatch = text('span', '', label);
     swatch.className = 'swatch';
     swatch.style.background = m.color;
-    label.appendChild(document.createTextNode(m.name + ' (' + m.id.substring(0, 8) + '): ' +
+    label.appendChild(document.createTextNode(missionLabel(m) + ': ' +
       m.vertex_ids.length + ' vertices, ' + m.path_length_m.toFixed(1) + ' m' +
       (m.baseframe_known ? '' : ', baseframe unknown')));
     missionsDiv.appendChild(checkbox('mission-' + mi, true, label, function (on) {
@@ -313,7 +318,7 @@ html, body { margin: 0; height: 100%; overflow: hidden; background: #ffffff;
   function select(mi, i) {
     var v = vertexAt(mi, i), m = v.mission;
     while (selection.children.length) selection.remove(selection.children[0]);
-    var depth = Math.max(0.05, Math.min(2.0, 0.03 * size));
+    var depth = Math.max(0.05, Math.min(2.0, 0.05 * size));
     var seg = [];
     m.cameras.forEach(function (c) {
       var q_I_C = new THREE.Quaternion(c.q_I_C[1], c.q_I_C[2], c.q_I_C[3], c.q_I_C[0]);
@@ -345,7 +350,7 @@ html, body { margin: 0; height: 100%; overflow: hidden; background: #ffffff;
     var p_G = [v.p.x + origin[0], v.p.y + origin[1], v.p.z + origin[2]];
     var details = document.getElementById('details');
     details.textContent =
-      'mission ' + m.name + ' (' + m.id + ')\n' +
+      'mission ' + (m.name ? m.name + ' (' + m.id + ')' : m.id) + '\n' +
       'vertex  ' + m.vertex_ids[i] + '  (' + (i + 1) + ' of ' + m.vertex_ids.length + ')\n' +
       't_ns    ' + t + '  (+' + (m.dt_ns[i] / 1e9).toFixed(3) + ' s in the mission)\n' +
       'p_G_I   [m]   ' + p_G.map(function (x) { return fixed(x, 3); }).join(' ') + '\n' +

@@ -134,6 +134,21 @@ struct Painter {
   }
 };
 
+// `text`, cut and ended with "..." where needed, so that it is at most `width` pixels wide at
+// `scale` times the painter's text size.
+std::string FitText(const Painter& painter, const std::string& text, int width, double scale) {
+  const auto measure = [&](const std::string& t) {
+    int baseline = 0;
+    return cv::getTextSize(Ascii(t), cv::FONT_HERSHEY_SIMPLEX, painter.font_scale * scale,
+                           painter.thickness, &baseline)
+        .width;
+  };
+  if (measure(text) <= width) return text;
+  std::string cut = text;
+  while (!cut.empty() && measure(cut + "...") > width) cut.pop_back();
+  return cut + "...";
+}
+
 struct MissionData {
   MissionId id;
   std::string label;
@@ -158,7 +173,8 @@ int Legend(const Painter& painter, const std::vector<LegendEntry>& entries, int 
            bool draw) {
   const int swatch_w = 3 * painter.line_h / 2;
   int x = painter.pad, y = top + painter.line_h;
-  for (const LegendEntry& entry : entries) {
+  for (LegendEntry entry : entries) {
+    entry.text = FitText(painter, entry.text, width - 3 * painter.pad - swatch_w, 1.0);
     const int w = swatch_w + painter.pad / 2 + painter.Measure(entry.text).width + 2 * painter.pad;
     if (x > painter.pad && x + w > width) {
       x = painter.pad;
@@ -437,8 +453,9 @@ MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
     }
     double length_m = 0.0;
     for (std::size_t k = 1; k < data.p_G.size(); ++k) length_m += (data.p_G[k] - data.p_G[k - 1]).norm();
-    data.label = (mission.name.empty() ? std::string("mission") : mission.name) + " (" +
-                 mission.id.Hex().substr(0, 8) + "): " + Count(data.p_G.size()) +
+    const std::string id8 = mission.id.Hex().substr(0, 8);
+    data.label = (mission.name.empty() ? "mission " + id8 : mission.name + " (" + id8 + ")") +
+                 ": " + Count(data.p_G.size()) +
                  " vertices, " + Fixed(length_m, 1) + " m" +
                  (mission.baseframe_known ? "" : ", baseframe unknown");
     summary.vertices += data.p_G.size();
@@ -573,12 +590,19 @@ MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
   }
 
   // --- draw ---
-  painter.Text((options.title.empty() ? std::string("VI-map") : options.title) + ": " +
-                   Count(missions.size()) + " mission(s), " + Count(summary.vertices) +
-                   " vertices, " + Count(summary.landmarks_total) + " landmarks (" +
-                   Count(summary.landmarks_drawn) + " drawn), " + Count(loops.size()) +
-                   " loop closure(s); frame G",
-               {painter.pad, painter.line_h + painter.pad / 2}, kText, 1.25);
+  {
+    const std::string title =
+        (options.title.empty() ? std::string("VI-map") : options.title) + ": " +
+        Count(missions.size()) + " mission(s), " + Count(summary.vertices) + " vertices, " +
+        Count(summary.landmarks_total) + " landmarks (" + Count(summary.landmarks_drawn) +
+        " drawn: " + options.landmarks + "), " + Count(loops.size()) + " loop closure(s); frame G";
+    // 1.25 times the text size, smaller (down to 0.8) or cut with "..." to fit the width.
+    const int room = W - 2 * painter.pad;
+    const double factor =
+        std::clamp(room / static_cast<double>(painter.Measure(title).width), 0.8, 1.25);
+    painter.Text(FitText(painter, title, room, factor),
+                 {painter.pad, painter.line_h + painter.pad / 2}, kText, factor);
+  }
   Legend(painter, legend, title_h, W, true);
   const double step_m = NiceStep(90.0 * unit / s, true);
   const int dot_r = std::max(1, static_cast<int>(std::lround(0.7 * unit)));
