@@ -227,6 +227,7 @@ TEST_CASE("plot_map selects missions and views", "[map_plot]") {
   CHECK(SelectMissions(test_map.map, beta_hex) == std::vector<mapstore::MissionId>{test_map.map.mission_ids()[1]});
   CHECK(SelectMissions(test_map.map, beta_hex.substr(0, 6) + ", alpha") == test_map.map.mission_ids());
   CHECK(SelectMissions(test_map.map, "").size() == 2);
+  CHECK(SelectMissions(test_map.map, "alpha,,") == std::vector<mapstore::MissionId>{test_map.map.mission_ids()[0]});
   CHECK_THROWS_WITH(SelectMissions(test_map.map, "gamma"),
                     Catch::Contains("--mission") && Catch::Contains("'gamma' matches none") &&
                         Catch::Contains("alpha"));

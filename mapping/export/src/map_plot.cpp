@@ -343,6 +343,7 @@ std::vector<MissionId> SelectMissions(const VIMap& map, const std::string& selec
   if (Trim(selector).empty()) return all;
   std::vector<bool> chosen(all.size(), false);
   for (const std::string& word : SplitComma(selector)) {
+    if (word.empty()) continue;  // "a,,b" or a trailing comma (an empty name selects nothing)
     std::vector<std::size_t> matches;
     for (std::size_t i = 0; i < all.size(); ++i) {
       if (map.mission(all[i]).name == word) matches.push_back(i);
