@@ -5,12 +5,11 @@
 #include <catch2/catch.hpp>
 
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <sstream>
 
-#include "integration/process_util.h"
+#include "mapping_export/colmap_analyzer.h"
 #include "mapping_export/data_export_test_util.h"
 #include "vilma/core/error.h"
 #include "vilma/mapping/export/colmap_export.h"
@@ -176,32 +175,6 @@ std::size_t GoodTrackObservations(const ProjectedMap& m, std::size_t* points) {
   return observations;
 }
 
-std::string FindColmap() {
-  const char* path = std::getenv("PATH");
-  for (const std::string& dir : testing::Split(path ? path : "", ':')) {
-    const fs::path candidate = fs::path(dir) / "colmap";
-    if (!dir.empty() && ::access(candidate.c_str(), X_OK) == 0) return candidate.string();
-  }
-  return "";
-}
-
-// `colmap model_analyzer --path DIR`'s counts ("Cameras: 4", ...).
-std::map<std::string, double> ModelAnalyzer(const std::string& colmap, const std::string& dir) {
-  const std::string log = dir + "/../model_analyzer.out";
-  test::ChildProcess analyzer({colmap, "model_analyzer", "--path", dir}, log);
-  REQUIRE(analyzer.Wait(120.0) == 0);
-  std::map<std::string, double> counts;
-  for (const std::string& line : ReadLines(log)) {
-    const std::size_t colon = line.find(": ");
-    if (colon == std::string::npos) continue;
-    double value;
-    std::string number = line.substr(colon + 2);
-    if (number.size() > 2 && number.substr(number.size() - 2) == "px") number.resize(number.size() - 2);
-    if (testing::ParseNumber(number, &value)) counts[line.substr(0, colon)] = value;
-  }
-  return counts;
-}
-
 TEST_CASE("colmap export: OPENCV model re-projects onto POINTS2D, COLMAP reads the counts",
           "[colmap_export]") {
   const ProjectedMap m = MakeProjectedMap({});
@@ -229,12 +202,12 @@ TEST_CASE("colmap export: OPENCV model re-projects onto POINTS2D, COLMAP reads t
   REQUIRE(model.images.at(1).name == first.Hex() + "_cam0.png");
   REQUIRE(model.images.at(2).name == first.Hex() + "_cam1.png");
 
-  const std::string colmap = FindColmap();
+  const std::string colmap = testing::FindColmap();
   if (colmap.empty()) {
     WARN("colmap is not installed (Debian package colmap): model_analyzer check skipped");
     return;
   }
-  const std::map<std::string, double> counts = ModelAnalyzer(colmap, dir);
+  const std::map<std::string, double> counts = testing::ModelAnalyzer(colmap, dir);
   REQUIRE(counts.at("Cameras") == 4);
   REQUIRE(counts.at("Images") == m.frames);
   REQUIRE(counts.at("Registered images") == m.frames);

@@ -17,8 +17,6 @@
 
 #include <catch2/catch.hpp>
 
-#include <unistd.h>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -35,10 +33,11 @@
 
 namespace vilma::mapping::testing {
 
-// A fresh empty folder under the system's temporary folder.
+// A fresh empty folder for one test under the build folder (left for inspection, replaced by
+// the next run).
 inline std::string ScratchFolder(const std::string& name) {
-  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
-                                    ("vilma_export_" + name + "_" + std::to_string(::getpid()));
+  const std::filesystem::path dir =
+      std::filesystem::path(VILMA_BINARY_DIR) / "test-cache" / "export" / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
   return dir.string();
