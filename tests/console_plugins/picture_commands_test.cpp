@@ -2,11 +2,9 @@
 // files are written and readable (the PNG decodes at the asked size, the HTML draws in headless
 // Chromium without a JavaScript error), and bad input fails with a message that names it.
 #include <catch2/catch.hpp>
-
 #include <filesystem>
-#include <sstream>
-
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "console_plugins/test_maps.h"
 #include "vilma/console/session.h"
@@ -34,8 +32,8 @@ TEST_CASE("plot_map writes a PNG of a daemon map; bad --out and options fail cle
   Fixture f;
   REQUIRE(f.Run("load " + maps.session0_map).ok());
   REQUIRE(f.Run("plot_map --out=" + dir + "/a.png --width_px=800 --height_px=600").ok());
-  CHECK_THAT(f.out.str(), Catch::Contains("wrote " + dir + "/a.png") &&
-                              Catch::Contains("1 mission(s)"));
+  CHECK_THAT(f.out.str(),
+             Catch::Contains("wrote " + dir + "/a.png") && Catch::Contains("1 mission(s)"));
   const cv::Mat image = cv::imread(dir + "/a.png", cv::IMREAD_COLOR);
   REQUIRE(!image.empty());
   CHECK(image.cols == 800);
@@ -75,8 +73,8 @@ TEST_CASE("export_html writes a page of a daemon map that draws in headless Chro
   CommandResult r = f.Run("export_html --out=" + dir + "/map.html --three_js_path=" + dir +
                           "/missing/three.min.js");
   CHECK(r.outcome == CommandOutcome::kFailed);
-  CHECK_THAT(r.message, Catch::Contains(dir + "/missing/three.min.js") &&
-                            Catch::Contains("libjs-three"));
+  CHECK_THAT(r.message,
+             Catch::Contains(dir + "/missing/three.min.js") && Catch::Contains("libjs-three"));
   CHECK_FALSE(fs::exists(dir + "/map.html"));
   r = f.Run("export_html --out=" + dir + "/map.txt");
   CHECK(r.outcome == CommandOutcome::kFailed);
@@ -87,8 +85,8 @@ TEST_CASE("export_html writes a page of a daemon map that draws in headless Chro
     return;
   }
   REQUIRE(f.Run("export_html " + dir).ok());
-  CHECK_THAT(f.out.str(), Catch::Contains("wrote " + dir + "/map.html") &&
-                              Catch::Contains("three.js r111"));
+  CHECK_THAT(f.out.str(),
+             Catch::Contains("wrote " + dir + "/map.html") && Catch::Contains("three.js r111"));
   if (!test::HaveProgram("chromium")) {
     WARN("skipped loading the page: Debian's chromium is not installed");
     return;

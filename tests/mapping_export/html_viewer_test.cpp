@@ -3,13 +3,12 @@
 // loads without a JavaScript error, draws the map and shows a clicked vertex's details.
 #include "vilma/mapping/export/html_viewer.h"
 
-#include <catch2/catch.hpp>
+#include <unistd.h>
 
+#include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <unistd.h>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -35,7 +34,8 @@ std::string ReadText(const std::string& path) {
 }
 
 std::string Scratch() {
-  const fs::path dir = fs::temp_directory_path() / ("vilma_html_viewer_" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("vilma_html_viewer_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   return dir.string();
 }
@@ -87,7 +87,7 @@ int CountColor(const cv::Mat& bgr, const std::array<uint8_t, 3>& rgb, int tolera
 TEST_CASE("export_html inlines three.js and the map, deterministically", "[html_viewer]") {
   if (!HaveThreeJs()) {
     WARN("skipped: Debian's libjs-three is not installed (" << HtmlViewerOptions{}.three_js_path
-                                                             << ")");
+                                                            << ")");
     return;
   }
   auto test_map = MakePictureTestMap();
@@ -109,8 +109,8 @@ TEST_CASE("export_html inlines three.js and the map, deterministically", "[html_
   CHECK(html.find("src=\"http") == std::string::npos);
   CHECK(html.find("<link") == std::string::npos);
   // The map: alpha's vertex 0 at (5, 0, 1) m relative to the origin.
-  const std::string json = Between(html, "<script type=\"application/json\" id=\"vilma-map-data\">",
-                                   "</script>");
+  const std::string json =
+      Between(html, "<script type=\"application/json\" id=\"vilma-map-data\">", "</script>");
   REQUIRE(!json.empty());
   CHECK(json.find("\"format\":\"vilma-map-viewer\",\"version\":1") != std::string::npos);
   CHECK(json.find("\"origin_m\":[10,0,1]") != std::string::npos);
@@ -141,9 +141,7 @@ TEST_CASE("export_html names a missing or wrong three.js and a bad --out", "[htm
   CHECK_THROWS_WITH(RenderHtmlViewer(test_map.map, options),
                     Catch::Contains(dir + "/no/three.min.js") && Catch::Contains("libjs-three") &&
                         Catch::Contains("--three_js_path"));
-  {
-    std::ofstream(dir + "/fake.js") << "console.log('hello');";
-  }
+  { std::ofstream(dir + "/fake.js") << "console.log('hello');"; }
   options.three_js_path = dir + "/fake.js";
   CHECK_THROWS_WITH(RenderHtmlViewer(test_map.map, options),
                     Catch::Contains("fake.js") && Catch::Contains("REVISION"));
@@ -186,9 +184,10 @@ TEST_CASE("export_html's page draws the map in headless Chromium without errors"
 
   // 1. The DOM after load, with a vertex picked through the URL fragment.
   std::string output;
-  REQUIRE(RunChromium({"--dump-dom"}, "file://" + page + "#vertex=" + picked.Hex(), dir,
-                      &output) == 0);
-  INFO("chromium output (tail): " << output.substr(output.size() > 3000 ? output.size() - 3000 : 0));
+  REQUIRE(RunChromium({"--dump-dom"}, "file://" + page + "#vertex=" + picked.Hex(), dir, &output) ==
+          0);
+  INFO(
+      "chromium output (tail): " << output.substr(output.size() > 3000 ? output.size() - 3000 : 0));
   CHECK(output.find("data-vilma-state=\"drawn\"") != std::string::npos);
   CHECK(output.find("data-vilma-errors=\"0\"") != std::string::npos);
   CHECK(output.find("<pre id=\"vilma-errors\"></pre>") != std::string::npos);  // empty, hidden
@@ -203,8 +202,7 @@ TEST_CASE("export_html's page draws the map in headless Chromium without errors"
 
   // 2. A screenshot without the panels: WebGL drew both trajectories, landmarks and the loop.
   const std::string shot = dir + "/shot.png";
-  REQUIRE(RunChromium({"--screenshot=" + shot}, "file://" + page + "#panels=0", dir, &output) ==
-          0);
+  REQUIRE(RunChromium({"--screenshot=" + shot}, "file://" + page + "#panels=0", dir, &output) == 0);
   CHECK(output.find("Uncaught") == std::string::npos);
   const cv::Mat image = cv::imread(shot, cv::IMREAD_COLOR);
   REQUIRE(!image.empty());

@@ -2,13 +2,12 @@
 // are drawn where the projection puts them, and the same map gives the same bytes.
 #include "vilma/mapping/export/map_plot.h"
 
-#include <catch2/catch.hpp>
+#include <unistd.h>
 
+#include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <unistd.h>
-
 #include <opencv2/imgcodecs.hpp>
 
 #include "mapping_export/map_plot_test_map.h"
@@ -89,8 +88,10 @@ TEST_CASE("plot_map puts every vertex at its projected pixel in its mission's co
       const Eigen::Vector3d p_G = test_map.map.T_G_I(test_map.vertices[mi][k]).translation();
       for (const MapPlotView& view : plot.views) {
         const Eigen::Vector2d px = view.Project(p_G);
-        REQUIRE(view.panel_px.contains(cv::Point(int(std::lround(px.x())), int(std::lround(px.y())))));
-        INFO("mission " << mi << " vertex " << k << " view " << view.axes << " at " << px.transpose());
+        REQUIRE(
+            view.panel_px.contains(cv::Point(int(std::lround(px.x())), int(std::lround(px.y())))));
+        INFO("mission " << mi << " vertex " << k << " view " << view.axes << " at "
+                        << px.transpose());
         CHECK(PixelAt(plot.image, px) == color);
         ++checked;
       }
@@ -110,8 +111,8 @@ TEST_CASE("plot_map puts every vertex at its projected pixel in its mission's co
 TEST_CASE("plot_map draws loop-closure edges between their vertices", "[map_plot]") {
   const auto test_map = MakePictureTestMap();
   const mapstore::Edge& loop = test_map.map.edge(test_map.loop_id);
-  const Eigen::Vector3d mid_G =
-      0.5 * (test_map.map.T_G_I(loop.from).translation() + test_map.map.T_G_I(loop.to).translation());
+  const Eigen::Vector3d mid_G = 0.5 * (test_map.map.T_G_I(loop.from).translation() +
+                                       test_map.map.T_G_I(loop.to).translation());
   const cv::Vec3b red = Bgr(LoopClosureColorRgb());
   MapPlotOptions options;
   options.width_px = 800;
@@ -224,10 +225,13 @@ TEST_CASE("plot_map selects missions and views", "[map_plot]") {
   CHECK(PixelAt(beta.image, beta.views[0].Project(p_G)) == Bgr(MissionColorRgb(1)));
 
   const std::string beta_hex = test_map.map.mission_ids()[1].Hex();
-  CHECK(SelectMissions(test_map.map, beta_hex) == std::vector<mapstore::MissionId>{test_map.map.mission_ids()[1]});
-  CHECK(SelectMissions(test_map.map, beta_hex.substr(0, 6) + ", alpha") == test_map.map.mission_ids());
+  CHECK(SelectMissions(test_map.map, beta_hex) ==
+        std::vector<mapstore::MissionId>{test_map.map.mission_ids()[1]});
+  CHECK(SelectMissions(test_map.map, beta_hex.substr(0, 6) + ", alpha") ==
+        test_map.map.mission_ids());
   CHECK(SelectMissions(test_map.map, "").size() == 2);
-  CHECK(SelectMissions(test_map.map, "alpha,,") == std::vector<mapstore::MissionId>{test_map.map.mission_ids()[0]});
+  CHECK(SelectMissions(test_map.map, "alpha,,") ==
+        std::vector<mapstore::MissionId>{test_map.map.mission_ids()[0]});
   CHECK_THROWS_WITH(SelectMissions(test_map.map, "gamma"),
                     Catch::Contains("--mission") && Catch::Contains("'gamma' matches none") &&
                         Catch::Contains("alpha"));
@@ -257,8 +261,9 @@ TEST_CASE("plot_map fits a long title and long mission names into the picture", 
   CHECK(cv::countNonZero(strip.reshape(1) != 255) == 0);
   // Without the long texts, the same region has text in it (the check can fail).
   const MapPlot normal = RenderMapPlot(MakePictureTestMap().map, MapPlotOptions{});
-  CHECK(cv::countNonZero(normal.image(cv::Rect(0, 0, 400, normal.views[0].panel_px.y - 10))
-                             .reshape(1) != 255) > 0);
+  CHECK(cv::countNonZero(
+            normal.image(cv::Rect(0, 0, 400, normal.views[0].panel_px.y - 10)).reshape(1) != 255) >
+        0);
 }
 
 TEST_CASE("plot_map refuses bad options and output paths with a clear message", "[map_plot]") {

@@ -36,10 +36,11 @@ inline PictureTestMap MakePictureTestMap() {
     mission.id = mission_ids.Next();
     mission.name = mi == 0 ? "alpha" : "beta";
     mission.baseframe_known = true;
-    mission.T_G_M = mi == 0 ? Transformation()
-                            : Transformation(Eigen::Quaterniond(Eigen::AngleAxisd(
-                                                 kPi / 2, Eigen::Vector3d::UnitZ())),
-                                             Eigen::Vector3d(20, 0, 0));
+    mission.T_G_M =
+        mi == 0 ? Transformation()
+                : Transformation(
+                      Eigen::Quaterniond(Eigen::AngleAxisd(kPi / 2, Eigen::Vector3d::UnitZ())),
+                      Eigen::Vector3d(20, 0, 0));
     mission.rig = mapstore::testing::TestRig();
     mission.complete = true;
     out.map.AddMission(mission);

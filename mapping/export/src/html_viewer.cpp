@@ -16,8 +16,8 @@
 #include <algorithm>
 #include <cctype>
 #include <charconv>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <iterator>
 #include <sstream>
@@ -42,10 +42,18 @@ std::string JsonString(const std::string& s) {
   for (const char c : s) {
     const auto u = static_cast<unsigned char>(c);
     switch (c) {
-      case '"': out += "\\\""; break;
-      case '\\': out += "\\\\"; break;
-      case '\n': out += "\\n"; break;
-      case '\t': out += "\\t"; break;
+      case '"':
+        out += "\\\"";
+        break;
+      case '\\':
+        out += "\\\\";
+        break;
+      case '\n':
+        out += "\\n";
+        break;
+      case '\t':
+        out += "\\t";
+        break;
       default:
         if (u < 0x20 || c == '<' || c == '>' || c == '&') {
           char buffer[8];
@@ -63,11 +71,20 @@ std::string HtmlEscape(const std::string& s) {
   std::string out;
   for (const char c : s) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -76,8 +93,8 @@ std::string HtmlEscape(const std::string& s) {
 // Locale-independent number with at most `decimals` decimals, trailing zeros dropped.
 std::string Number(double value, int decimals) {
   char buffer[64];
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value,
-                                    std::chars_format::fixed, decimals);
+  const auto result =
+      std::to_chars(buffer, buffer + sizeof(buffer), value, std::chars_format::fixed, decimals);
   std::string text(buffer, result.ptr);
   if (text.find('.') != std::string::npos) {
     while (text.back() == '0') text.pop_back();
@@ -110,10 +127,11 @@ std::string Hex(const std::array<uint8_t, 3>& rgb) {
 std::string ReadLibraryFile(const std::string& path, const std::string& what) {
   std::ifstream in(path, std::ios::binary);
   if (!in) {
-    throw InputError(FormatInputError(
-        path, "", "a readable " + what + " (Debian package libjs-three: apt install " +
-                      "libjs-three, or give its path with --" +
-                      (what == "three.js" ? "three_js_path" : "orbit_controls_path") + ")"));
+    throw InputError(
+        FormatInputError(path, "",
+                         "a readable " + what + " (Debian package libjs-three: apt install " +
+                             "libjs-three, or give its path with --" +
+                             (what == "three.js" ? "three_js_path" : "orbit_controls_path") + ")"));
   }
   return std::string(std::istreambuf_iterator<char>(in), {});
 }
@@ -172,9 +190,8 @@ std::string HtmlViewerSummary::BriefReport() const {
   std::ostringstream out;
   if (!path.empty()) out << "wrote " << path << " (" << bytes << " bytes): ";
   out << missions << " mission(s), " << vertices << " vertices, " << loop_closures
-      << " loop closure(s), landmarks " << landmarks_embedded << " embedded of "
-      << landmarks_shown << " shown of " << landmarks_total << ", three.js r"
-      << three_js_revision;
+      << " loop closure(s), landmarks " << landmarks_embedded << " embedded of " << landmarks_shown
+      << " shown of " << landmarks_total << ", three.js r" << three_js_revision;
   return out.str();
 }
 
@@ -190,8 +207,8 @@ std::string RenderHtmlViewer(const VIMap& map, const HtmlViewerOptions& options,
   const std::string three_js = ReadLibraryFile(options.three_js_path, "three.js");
   summary.three_js_revision = ThreeJsRevision(three_js);
   if (summary.three_js_revision.empty() || three_js.find("WebGLRenderer") == std::string::npos) {
-    throw InputError(FormatInputError(options.three_js_path, "",
-                                      "three.js (a REVISION and a WebGLRenderer)"));
+    throw InputError(
+        FormatInputError(options.three_js_path, "", "three.js (a REVISION and a WebGLRenderer)"));
   }
   const std::string orbit = ReadLibraryFile(options.orbit_controls_path, "OrbitControls.js");
   if (orbit.find("OrbitControls") == std::string::npos) {
@@ -203,9 +220,9 @@ std::string RenderHtmlViewer(const VIMap& map, const HtmlViewerOptions& options,
     std::string lower = *library;
     std::transform(lower.begin(), lower.end(), lower.begin(), ::tolower);
     if (lower.find("</script") != std::string::npos) {
-      throw InputError(FormatInputError(library == &three_js ? options.three_js_path
-                                                             : options.orbit_controls_path,
-                                        "", "a script without \"</script\" (to inline it)"));
+      throw InputError(FormatInputError(
+          library == &three_js ? options.three_js_path : options.orbit_controls_path, "",
+          "a script without \"</script\" (to inline it)"));
     }
   }
   ReportProgress(progress, 1);
@@ -269,12 +286,12 @@ std::string RenderHtmlViewer(const VIMap& map, const HtmlViewerOptions& options,
                  "],\"q_I_C\":" + q_I_C + "],\"corners\":[" + corners + "]}";
     }
     json += std::string(mi > 0 ? "," : "") + "{\"id\":\"" + mission.id.Hex() +
-            "\",\"name\":" + JsonString(mission.name) +
-            ",\"color\":\"" + Hex(MissionColorRgb(MissionIndex(map, mission.id))) +
+            "\",\"name\":" + JsonString(mission.name) + ",\"color\":\"" +
+            Hex(MissionColorRgb(MissionIndex(map, mission.id))) +
             "\",\"baseframe_known\":" + (mission.baseframe_known ? "true" : "false") +
-            ",\"path_length_m\":" + Number(length_m, 3) + ",\"t0_ns\":\"" +
-            std::to_string(t0) + "\",\"vertex_ids\":" + vertex_ids + "],\"dt_ns\":" + dt +
-            "],\"p_mm\":" + p_mm + "],\"q_G_I\":" + q + "],\"cameras\":" + cameras + "]}";
+            ",\"path_length_m\":" + Number(length_m, 3) + ",\"t0_ns\":\"" + std::to_string(t0) +
+            "\",\"vertex_ids\":" + vertex_ids + "],\"dt_ns\":" + dt + "],\"p_mm\":" + p_mm +
+            "],\"q_G_I\":" + q + "],\"cameras\":" + cameras + "]}";
   }
   json += "],\"loop_closures\":[";
   for (const MissionId& id : selected) {
@@ -318,8 +335,10 @@ std::string RenderHtmlViewer(const VIMap& map, const HtmlViewerOptions& options,
   // Fill the page's placeholders (split first: inserted text is never searched again).
   const std::string page = internal::kHtmlViewerPage;
   const std::vector<std::pair<std::string, const std::string*>> fills = {
-      {"@@TITLE@@", nullptr},          {"@@REVISION@@", &summary.three_js_revision},
-      {"@@THREE_JS@@", &three_js},     {"@@ORBIT_CONTROLS@@", &orbit},
+      {"@@TITLE@@", nullptr},
+      {"@@REVISION@@", &summary.three_js_revision},
+      {"@@THREE_JS@@", &three_js},
+      {"@@ORBIT_CONTROLS@@", &orbit},
       {"@@MAP_JSON@@", &json}};
   const std::string escaped_title = HtmlEscape(title);
   std::string html;

@@ -13,18 +13,18 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
-#include <sstream>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
 
+#include "map_plot_util.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 
 namespace vilma::mapping {
 namespace {
 
-namespace fs = std::filesystem;
+using internal::SplitComma;
 using mapstore::LandmarkId;
 using mapstore::MissionId;
 using mapstore::VertexId;
@@ -42,31 +42,6 @@ const cv::Scalar kLandmarkColor[3] = {cv::Scalar(215, 180, 170), cv::Scalar(170,
 constexpr int kShift = 4;  // sub-pixel bits of OpenCV's drawing functions
 constexpr double kOne = 1 << kShift;
 
-std::string Trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t");
-  if (b == std::string::npos) return "";
-  return s.substr(b, s.find_last_not_of(" \t") - b + 1);
-}
-
-std::vector<std::string> SplitComma(const std::string& text) {
-  std::vector<std::string> words;
-  std::stringstream ss(text);
-  std::string word;
-  while (std::getline(ss, word, ',')) words.push_back(Trim(word));
-  return words;
-}
-
-bool IsHex(const std::string& s) {
-  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) {
-    return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F');
-  });
-}
-
-std::string Lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
 // Hershey fonts have ASCII only.
 std::string Ascii(const std::string& s) {
   std::string out = s;
@@ -80,8 +55,8 @@ std::string Ascii(const std::string& s) {
 std::string Fixed(double value, int decimals) {
   char buffer[64];
   if (std::abs(value) < 0.5 * std::pow(10.0, -decimals)) value = 0.0;  // no "-0"
-  const auto result = std::to_chars(buffer, buffer + sizeof(buffer), value,
-                                    std::chars_format::fixed, decimals);
+  const auto result =
+      std::to_chars(buffer, buffer + sizeof(buffer), value, std::chars_format::fixed, decimals);
   return std::string(buffer, result.ptr);
 }
 
@@ -110,7 +85,9 @@ double NiceStep(double x, bool ceil) {
 }
 
 // Digits after the decimal point that show multiples of `step` exactly (1, 2, 5 x 10^k).
-int DecimalsFor(double step) { return std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9))); }
+int DecimalsFor(double step) {
+  return std::max(0, static_cast<int>(-std::floor(std::log10(step) + 1e-9)));
+}
 
 int AxisIndex(char axis) { return axis - 'x'; }
 
@@ -305,133 +282,7 @@ std::string MapPlotSummary::BriefReport() const {
   return out.str();
 }
 
-std::array<uint8_t, 3> MissionColorRgb(std::size_t index) {
-  static constexpr std::array<std::array<uint8_t, 3>, 8> kPalette = {{{31, 119, 180},
-                                                                      {255, 127, 14},
-                                                                      {44, 160, 44},
-                                                                      {148, 103, 189},
-                                                                      {140, 86, 75},
-                                                                      {227, 119, 194},
-                                                                      {188, 189, 34},
-                                                                      {23, 190, 207}}};
-  return kPalette[index % kPalette.size()];
-}
-
-std::array<uint8_t, 3> LoopClosureColorRgb() { return {214, 39, 40}; }
-
-std::string ParseLandmarkQualities(const std::string& text, std::array<bool, 3>* keep) {
-  keep->fill(false);
-  const std::vector<std::string> words = SplitComma(text);
-  if (words.size() == 1 && words[0] == "none") return "";
-  for (const std::string& w : words) {
-    if (w == "good") {
-      (*keep)[static_cast<int>(mapstore::LandmarkQuality::kGood)] = true;
-    } else if (w == "bad") {
-      (*keep)[static_cast<int>(mapstore::LandmarkQuality::kBad)] = true;
-    } else if (w == "unknown") {
-      (*keep)[static_cast<int>(mapstore::LandmarkQuality::kUnknown)] = true;
-    } else {
-      return "comma separated good, unknown, bad, or none (not '" + w + "')";
-    }
-  }
-  return "";
-}
-
-std::vector<MissionId> SelectMissions(const VIMap& map, const std::string& selector,
-                                      const std::string& flag) {
-  const std::vector<MissionId>& all = map.mission_ids();
-  if (Trim(selector).empty()) return all;
-  std::vector<bool> chosen(all.size(), false);
-  for (const std::string& word : SplitComma(selector)) {
-    if (word.empty()) continue;  // "a,,b" or a trailing comma (an empty name selects nothing)
-    std::vector<std::size_t> matches;
-    for (std::size_t i = 0; i < all.size(); ++i) {
-      if (map.mission(all[i]).name == word) matches.push_back(i);
-    }
-    if (matches.empty() && IsHex(word) && word.size() >= 4) {
-      for (std::size_t i = 0; i < all.size(); ++i) {
-        if (all[i].Hex().compare(0, word.size(), Lower(word)) == 0) matches.push_back(i);
-      }
-      if (matches.size() > 1) {
-        throw InputError(FormatInputError("--" + flag, "", "an id prefix of one mission ('" +
-                                                                word + "' starts " +
-                                                                std::to_string(matches.size()) +
-                                                                " mission ids)"));
-      }
-    }
-    if (matches.empty()) {
-      std::string known;
-      for (const MissionId& id : all) {
-        known += (known.empty() ? "" : ", ") + id.Hex().substr(0, 8) + " '" +
-                 map.mission(id).name + "'";
-      }
-      throw InputError(FormatInputError(
-          "--" + flag, "",
-          "a mission id, id prefix (>= 4 hex digits) or name; '" + word +
-              "' matches none (missions: " + (known.empty() ? "none" : known) + ")"));
-    }
-    for (std::size_t i : matches) chosen[i] = true;
-  }
-  std::vector<MissionId> selected;
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    if (chosen[i]) selected.push_back(all[i]);
-  }
-  return selected;
-}
-
-std::size_t MissionIndex(const VIMap& map, const MissionId& mission_id) {
-  const std::vector<MissionId>& all = map.mission_ids();
-  return static_cast<std::size_t>(std::find(all.begin(), all.end(), mission_id) - all.begin());
-}
-
-std::vector<VertexId> VerticesInTimeOrder(const VIMap& map, const MissionId& mission_id) {
-  std::vector<VertexId> ids = map.vertex_ids(mission_id);
-  std::stable_sort(ids.begin(), ids.end(), [&map](const VertexId& a, const VertexId& b) {
-    return map.vertex(a).t_ns < map.vertex(b).t_ns;
-  });
-  return ids;
-}
-
-std::vector<std::size_t> SubsampleIndices(std::size_t count, std::size_t max_count) {
-  std::vector<std::size_t> indices;
-  if (count <= max_count) {
-    indices.resize(count);
-    for (std::size_t i = 0; i < count; ++i) indices[i] = i;
-    return indices;
-  }
-  indices.reserve(max_count);
-  for (std::size_t i = 0; i < max_count; ++i) {
-    // No overflow: i < max_count < count < 2^32 in any map, so i * count < 2^64.
-    indices.push_back(static_cast<std::size_t>(static_cast<uint64_t>(i) * count / max_count));
-  }
-  return indices;
-}
-
-std::string ResolveOutputFile(const std::string& out, const std::string& default_name,
-                              const std::string& extension, const std::string& flag) {
-  if (out.empty()) {
-    throw InputError(FormatInputError("--" + flag, "", "a " + extension +
-                                                           " file or an existing folder"));
-  }
-  std::error_code ec;
-  if (fs::is_directory(out, ec)) return (fs::path(out) / default_name).string();
-  const std::string ext = Lower(fs::path(out).extension().string());
-  if (ext != extension) {
-    throw InputError(FormatInputError(out, "--" + flag,
-                                      "a file name ending in " + extension +
-                                          " or an existing folder"));
-  }
-  const fs::path parent = fs::path(out).parent_path();
-  if (!parent.empty() && !fs::is_directory(parent, ec)) {
-    throw InputError(FormatInputError(out, "--" + flag,
-                                      "an existing folder to write into (no folder " +
-                                          parent.string() + ")"));
-  }
-  return out;
-}
-
-MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
-                      ProgressObserver* progress) {
+MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options, ProgressObserver* progress) {
   ThrowIfInvalid(options.Validate(), "plot_map options");
   const std::vector<MissionId> selected = SelectMissions(map, options.mission);
   std::array<bool, 3> keep_quality;
@@ -453,11 +304,11 @@ MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
       selected_vertices.insert(v);
     }
     double length_m = 0.0;
-    for (std::size_t k = 1; k < data.p_G.size(); ++k) length_m += (data.p_G[k] - data.p_G[k - 1]).norm();
+    for (std::size_t k = 1; k < data.p_G.size(); ++k)
+      length_m += (data.p_G[k] - data.p_G[k - 1]).norm();
     const std::string id8 = mission.id.Hex().substr(0, 8);
     data.label = (mission.name.empty() ? "mission " + id8 : mission.name + " (" + id8 + ")") +
-                 ": " + Count(data.p_G.size()) +
-                 " vertices, " + Fixed(length_m, 1) + " m" +
+                 ": " + Count(data.p_G.size()) + " vertices, " + Fixed(length_m, 1) + " m" +
                  (mission.baseframe_known ? "" : ", baseframe unknown");
     summary.vertices += data.p_G.size();
     missions.push_back(std::move(data));
@@ -530,12 +381,14 @@ MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
   const int W = options.width_px, H = options.height_px;
   plot.image = cv::Mat(H, W, CV_8UC3, kWhite);
   const double unit = std::min(W, H) / 800.0;
-  Painter painter{&plot.image, std::max(0.35, 0.5 * unit), std::max(1, static_cast<int>(std::lround(unit))),
-                  0, std::max(4, static_cast<int>(std::lround(8 * unit)))};
+  Painter painter{&plot.image, std::max(0.35, 0.5 * unit),
+                  std::max(1, static_cast<int>(std::lround(unit))), 0,
+                  std::max(4, static_cast<int>(std::lround(8 * unit)))};
   painter.line_h = painter.Measure("Ag").height * 2;
 
   std::vector<LegendEntry> legend;
-  for (const MissionData& m : missions) legend.push_back({LegendEntry::Swatch::kLine, m.color, m.label});
+  for (const MissionData& m : missions)
+    legend.push_back({LegendEntry::Swatch::kLine, m.color, m.label});
   legend.push_back({LegendEntry::Swatch::kCircle, kFrame, "start"});
   for (int q : {2, 0, 1}) {
     if (!keep_quality[q]) continue;
@@ -610,7 +463,7 @@ MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
   const int line_t = std::max(2, static_cast<int>(std::lround(1.3 * unit)));
   const int vertex_r = std::max(2, static_cast<int>(std::lround(1.6 * unit)));
   for (const MapPlotView& view : plot.views) {
-    std::string name = view.axes == "xy" ? "top view (x-y)"
+    std::string name = view.axes == "xy"   ? "top view (x-y)"
                        : view.axes == "xz" ? "side view (x-z)"
                                            : "side view (y-z)";
     DrawAxes(painter, view, step_m, name);
@@ -625,7 +478,8 @@ MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options,
     }
     for (const MissionData& m : missions) {
       std::vector<cv::Point> points;
-      for (const Eigen::Vector3d& p : m.p_G) points.push_back(ToPoint(view.Project(p), view.panel_px));
+      for (const Eigen::Vector3d& p : m.p_G)
+        points.push_back(ToPoint(view.Project(p), view.panel_px));
       cv::polylines(panel, points, false, m.color, line_t, cv::LINE_AA, kShift);
     }
     for (const auto& [a, b_G] : loops) {

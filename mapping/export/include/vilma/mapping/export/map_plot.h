@@ -12,10 +12,9 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "vilma/core/progress.h"
 #include "vilma/mapstore/vi_map.h"
@@ -46,9 +45,9 @@ struct MapPlotOptions {
 // One view's projection: G -> pixels. Columns grow with the horizontal axis, rows shrink with
 // the vertical axis (image rows grow downwards); both axes have the same scale (metric picture).
 struct MapPlotView {
-  std::string axes;        // "xy", "xz" or "yz": the horizontal then the vertical axis of G
-  cv::Rect panel_px;       // the plotting area inside the view's axes
-  double px_per_m = 1.0;   // scale [px/m]
+  std::string axes;       // "xy", "xz" or "yz": the horizontal then the vertical axis of G
+  cv::Rect panel_px;      // the plotting area inside the view's axes
+  double px_per_m = 1.0;  // scale [px/m]
   Eigen::Vector2d min_m = Eigen::Vector2d::Zero();  // G coordinates at the panel's lower left
 
   // (column, row) of p_G in the image, sub-pixel [px].
@@ -59,13 +58,13 @@ struct MapPlotSummary {
   std::string path;  // file written ("" for RenderMapPlot)
   std::size_t missions = 0;
   std::size_t vertices = 0;
-  std::size_t loop_closures = 0;     // drawn (both vertices in the selected missions)
-  std::size_t landmarks_total = 0;   // in the selected missions, any quality
-  std::size_t landmarks_shown = 0;   // passing the quality filter
-  std::size_t landmarks_drawn = 0;   // after subsampling
-  double scale_bar_m = 0.0;          // length of the scale bar [m]
+  std::size_t loop_closures = 0;    // drawn (both vertices in the selected missions)
+  std::size_t landmarks_total = 0;  // in the selected missions, any quality
+  std::size_t landmarks_shown = 0;  // passing the quality filter
+  std::size_t landmarks_drawn = 0;  // after subsampling
+  double scale_bar_m = 0.0;         // length of the scale bar [m]
   double px_per_m = 0.0;
-  std::size_t bytes = 0;             // PNG size
+  std::size_t bytes = 0;  // PNG size
   std::string BriefReport() const;
 };
 
