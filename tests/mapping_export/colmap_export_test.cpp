@@ -299,6 +299,13 @@ TEST_CASE("colmap export: OPENCV images are the resources' bytes", "[colmap_expo
   const auto& frame = m.map.vertex(vertex).frames[1];
   const auto bytes = m.map.resources().Load(mapstore::ResourceType::kImage, frame.image_resource_id);
   REQUIRE(testing::ReadText(dir + "/images/" + vertex.Hex() + "_cam1.png") == *bytes);
+  // Cancelled while writing images: no model text file.
+  const std::string cancelled = ScratchFolder("colmap_cancel") + "/model";
+  options.out = cancelled;
+  testing::CancelAfter cancel(2);
+  REQUIRE_THROWS_AS(ExportColmap(m.map, options, &cancel), Cancelled);
+  REQUIRE_FALSE(fs::exists(cancelled + "/points3D.txt"));
+  REQUIRE_FALSE(fs::exists(cancelled + "/cameras.txt"));
   options.images = false;
   const std::string dir2 = ScratchFolder("colmap_no_images");
   options.out = dir2;

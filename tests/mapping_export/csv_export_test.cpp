@@ -249,6 +249,16 @@ TEST_CASE("csv export: one mission keeps every reference inside the export", "[c
   REQUIRE(summary.rows.at("missions.csv") == 1);
 }
 
+TEST_CASE("csv export: cancelled writes nothing", "[csv_export]") {
+  const VIMap map = mapstore::testing::MakeSyntheticMap({});
+  const std::string dir = ScratchFolder("csv_cancel") + "/out";
+  CsvExportOptions options;
+  options.out = dir;
+  testing::CancelAfter cancel(5);
+  REQUIRE_THROWS_AS(ExportCsv(map, options, &cancel), Cancelled);
+  REQUIRE_FALSE(std::filesystem::exists(dir));
+}
+
 TEST_CASE("csv export: bad input", "[csv_export]") {
   const VIMap map = mapstore::testing::MakeSyntheticMap({});
   CsvExportOptions options;

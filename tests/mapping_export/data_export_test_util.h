@@ -28,6 +28,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
+#include "vilma/core/progress.h"
 #include "vilma/core/rig.h"
 #include "vilma/mapstore/vi_map.h"
 
@@ -68,6 +69,21 @@ inline std::vector<std::string> ReadLines(const std::string& path) {
   while (std::getline(s, line)) lines.push_back(line);
   return lines;
 }
+
+// A progress observer that asks to cancel once `cancel_after` Advance calls were made (Ctrl-C
+// in the console).
+class CancelAfter : public ProgressObserver {
+ public:
+  explicit CancelAfter(int cancel_after) : cancel_after_(cancel_after) {}
+  void Begin(const std::string&, std::size_t) override {}
+  void Advance(std::size_t) override { ++advances_; }
+  bool CancelRequested() const override { return advances_ >= cancel_after_; }
+  int advances() const { return advances_; }
+
+ private:
+  int cancel_after_;
+  int advances_ = 0;
+};
 
 // Whole-text decimal number (as Python's float() would accept), else false.
 inline bool ParseNumber(const std::string& text, double* value) {

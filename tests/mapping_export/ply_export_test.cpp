@@ -178,6 +178,11 @@ TEST_CASE("landmarks ply: one mission; bad input", "[ply_export]") {
   std::ofstream(dir + "/file") << "x";
   options.out = dir + "/file/x.ply";
   REQUIRE_THROWS_AS(ExportLandmarksPly(map, options), InputError);
+  // Cancelled: nothing written.
+  options.out = dir + "/cancelled.ply";
+  testing::CancelAfter cancel(1);
+  REQUIRE_THROWS_AS(ExportLandmarksPly(map, options, &cancel), Cancelled);
+  REQUIRE_FALSE(std::filesystem::exists(options.out));
 }
 
 }  // namespace

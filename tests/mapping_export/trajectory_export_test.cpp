@@ -214,6 +214,18 @@ TEST_CASE("trajectory export: bad input names the problem and writes nothing", "
   REQUIRE(files == 0);
 }
 
+TEST_CASE("trajectory export: cancelled after the first mission writes nothing",
+          "[trajectory_export]") {
+  const VIMap map = TwoMissionMap();
+  const std::string dir = ScratchFolder("traj_cancel");
+  TrajectoryExportOptions options;
+  options.out = dir;
+  testing::CancelAfter cancel(1);
+  REQUIRE_THROWS_AS(ExportTrajectories(map, options, &cancel), Cancelled);
+  REQUIRE(cancel.advances() == 1);
+  REQUIRE(fs::is_empty(dir));
+}
+
 TEST_CASE("trajectory export: options validation", "[trajectory_export]") {
   TrajectoryExportOptions options;
   REQUIRE(options.Validate().rfind("out:", 0) == 0);

@@ -21,11 +21,17 @@ constexpr const char* kMissionHelp =
 // against the selected map when the command runs.
 template <typename LibraryOptions>
 struct ExportCommandOptions {
-  LibraryOptions export_options;
+  std::string out;  // LibraryOptions::out (a path flag: completed as a path)
   std::string mission;
-  std::string Validate() const { return export_options.Validate(); }
+  LibraryOptions export_options;
+  std::string Validate() const {
+    LibraryOptions o = export_options;
+    o.out = out;
+    return o.Validate();
+  }
   LibraryOptions Resolve(const mapstore::VIMap& map) const {
     LibraryOptions resolved = export_options;
+    resolved.out = out;
     resolved.missions = mapping::SelectMissions(map, mission, "mission");
     return resolved;
   }
@@ -43,10 +49,8 @@ Command<O> ExportCommand(const std::string& name, const std::string& out_help,
                          std::vector<std::string> out_aliases) {
   Command<O> command(name);
   command.Group("export")
-      .Usage("[PATH]")
       .Access(MapAccess::kRead)
-      .FlagAt("out", [](O& o) -> std::string& { return o.export_options.out; }, out_help,
-              std::move(out_aliases))
+      .PathFlag("out", &O::out, out_help, std::move(out_aliases))
       .Positional("out")
       .Flag("mission", &O::mission, kMissionHelp, {"map_mission"});
   return command;
