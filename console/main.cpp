@@ -14,6 +14,7 @@
 #include "vilma/console/kitti_command.h"
 #include "vilma/console/localize_command.h"
 #include "vilma/console/locmap_command.h"
+#include "vilma/console/map_from_poses_command.h"
 #include "vilma/console/rig_command.h"
 #include "vilma/console/vio_command.h"
 
@@ -38,6 +39,8 @@ const Subcommand kSubcommands[] = {
      &vilma::console::RunKittiCommand},
     {"locmap", "localization maps: build a .vlocmap from a VI-map folder, print a file's summary",
      &vilma::console::RunLocmapCommand},
+    {"map-from-poses", "a VI-map from an ASL dataset and given poses (keyframes, stereo, wide baselines)",
+     &vilma::console::RunMapFromPosesCommand},
     {"rig", "sensor rig files: import EuRoC/Kalibr calibrations, check a rig YAML",
      &vilma::console::RunRigCommand},
     {"vio", "visual-inertial odometry (ROVIO-style filter) over an ASL dataset folder",
