@@ -160,7 +160,7 @@ TEST_CASE("landmarks ply: ASCII, good only, coloured by quality", "[ply_export]"
   }
 }
 
-TEST_CASE("landmarks ply: one mission; bad input", "[ply_export]") {
+TEST_CASE("landmarks ply: one mission, bad input and cancel", "[ply_export]") {
   const VIMap map = mapstore::testing::MakeSyntheticMap({});
   const std::string dir = ScratchFolder("ply_bad");
   PlyExportOptions options;

@@ -154,7 +154,7 @@ TEST_CASE("trajectory export: G = T_G_M * M, velocities rotated", "[trajectory_e
   }
 }
 
-TEST_CASE("trajectory export: rpg and kitti read back; several missions into a file name",
+TEST_CASE("trajectory export: rpg and kitti read back, several missions into a file name",
           "[trajectory_export]") {
   const VIMap map = TwoMissionMap();
   const std::string dir = ScratchFolder("traj_rpg");
