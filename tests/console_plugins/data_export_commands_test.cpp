@@ -3,7 +3,6 @@
 // read back by vilma's loaders, `vilma eval` and `colmap model_analyzer`; bad input (missing or
 // unwritable --out, an unknown format or mission) fails with a message naming it.
 #include <catch2/catch.hpp>
-
 #include <filesystem>
 #include <sstream>
 
@@ -29,9 +28,7 @@ struct Fixture {
     INFO(line << "\n" << err.str());
     return r;
   }
-  const mapstore::VIMap& map() {
-    return *session.maps().Get(session.maps().selected()).map;
-  }
+  const mapstore::VIMap& map() { return *session.maps().Get(session.maps().selected()).map; }
 };
 
 // Loads both sessions as one map of two missions.
@@ -51,8 +48,8 @@ TEST_CASE("ettc writes one trajectory per mission that vilma eval reads (ATE 0 o
   Fixture f;
   LoadBoth(&f);
   const std::string dir = test::ConsoleScratch("ettc");
-  REQUIRE(f.Run("ettc --pose_export_file=" + dir + "/traj.csv --csv_export_format=asl --frame=M")
-              .ok());
+  REQUIRE(
+      f.Run("ettc --pose_export_file=" + dir + "/traj.csv --csv_export_format=asl --frame=M").ok());
   CHECK_THAT(f.out.str(), Catch::Contains("2 files") && Catch::Contains("frame M"));
   for (const mapstore::MissionId& id : f.map().mission_ids()) {
     const std::string path = dir + "/traj_" + id.Hex() + ".csv";
@@ -60,9 +57,9 @@ TEST_CASE("ettc writes one trajectory per mission that vilma eval reads (ATE 0 o
     REQUIRE(read.size() == f.map().vertex_ids(id).size());
     // `vilma eval` of the export against itself.
     const std::string json = dir + "/self_" + id.Hex() + ".json";
-    test::ChildProcess eval({test::BinDir() + "/vilma", "eval", "--gt", path, "--est", path,
-                             "--json", json},
-                            dir + "/eval.out");
+    test::ChildProcess eval(
+        {test::BinDir() + "/vilma", "eval", "--gt", path, "--est", path, "--json", json},
+        dir + "/eval.out");
     REQUIRE(eval.Wait(60.0) == 0);
     const std::string text = test::ReadTextFile(json);
     CHECK(JsonNumber(text, "matched_poses") == read.size());
@@ -112,8 +109,8 @@ TEST_CASE("encc, csv_export and export_landmarks_ply on a daemon map") {
   CHECK(fs::exists(dir + "/csv/descriptors.csv"));
 
   REQUIRE(f.Run("export_landmarks_ply " + dir + "/good.ply --good_only --color_by=quality").ok());
-  CHECK_THAT(f.out.str(), Catch::Contains(std::to_string(good) + " landmarks") &&
-                              Catch::Contains("frame G"));
+  CHECK_THAT(f.out.str(),
+             Catch::Contains(std::to_string(good) + " landmarks") && Catch::Contains("frame G"));
   const std::string ply = mapping::testing::ReadText(dir + "/good.ply");
   CHECK(ply.find("element vertex " + std::to_string(good) + "\n") != std::string::npos);
 }
@@ -158,8 +155,8 @@ TEST_CASE("data exports refuse missing or unwritable --out, unknown formats and 
   CommandResult r = f.Run("ettc --out=" + dir + "/t.txt");
   CHECK(r.outcome == CommandOutcome::kFailed);  // no map loaded
   LoadBoth(&f);
-  for (const std::string command : {"ettc", "encc", "csv_export", "export_landmarks_ply",
-                                    "export_colmap"}) {
+  for (const std::string command :
+       {"ettc", "encc", "csv_export", "export_landmarks_ply", "export_colmap"}) {
     r = f.Run(command);
     CHECK(r.outcome == CommandOutcome::kFailed);
     CHECK_THAT(r.message, Catch::Contains("out: expected"));
@@ -185,7 +182,8 @@ TEST_CASE("data exports refuse missing or unwritable --out, unknown formats and 
   CHECK_THAT(r.message, Catch::Contains("nosuchmission"));
   // Nothing was written by the failed commands.
   std::size_t entries = 0;
-  for (const auto& entry : fs::directory_iterator(dir)) entries += entry.path().filename() != "file";
+  for (const auto& entry : fs::directory_iterator(dir))
+    entries += entry.path().filename() != "file";
   CHECK(entries == 0);
 }
 

@@ -1,14 +1,14 @@
 // export_ncamera_calibration: the written rig YAML loads with core/rig.h's loader to the same
 // rig; one file per mission; missions without a rig are refused.
-#include <catch2/catch.hpp>
+#include "vilma/mapping/export/calibration_export.h"
 
+#include <catch2/catch.hpp>
 #include <filesystem>
 
 #include "mapping_export/data_export_test_util.h"
 #include "mapstore/synthetic_map.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
-#include "vilma/mapping/export/calibration_export.h"
 
 namespace vilma::mapping {
 namespace {

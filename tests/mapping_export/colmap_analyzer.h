@@ -2,10 +2,9 @@
 // the console's export command tests. Tests skip (with a WARN saying so) when colmap is absent.
 #pragma once
 
-#include <catch2/catch.hpp>
-
 #include <unistd.h>
 
+#include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
 #include <map>

@@ -2,8 +2,9 @@
 // holds; points3D re-projected through the written cameras and images (COLMAP's camera models
 // implemented here from COLMAP's definitions, independent of vilma's Camera) land on their
 // POINTS2D; undistorted images show what a pinhole camera sees.
-#include <catch2/catch.hpp>
+#include "vilma/mapping/export/colmap_export.h"
 
+#include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -12,7 +13,6 @@
 #include "mapping_export/colmap_analyzer.h"
 #include "mapping_export/data_export_test_util.h"
 #include "vilma/core/error.h"
-#include "vilma/mapping/export/colmap_export.h"
 
 namespace vilma::mapping {
 namespace {
@@ -252,7 +252,8 @@ TEST_CASE("colmap export: undistorted PINHOLE with images shows the pinhole's vi
   const CmCamera& camera = model.cameras.at(1);
   REQUIRE(camera.model == "PINHOLE");
   // The undistorted image at every inner pixel shows the pattern of that pinhole pixel's ray.
-  const cv::Mat image = cv::imread(dir + "/images/" + model.images.at(1).name, cv::IMREAD_UNCHANGED);
+  const cv::Mat image =
+      cv::imread(dir + "/images/" + model.images.at(1).name, cv::IMREAD_UNCHANGED);
   REQUIRE(image.cols == camera.width);
   REQUIRE(image.rows == camera.height);
   double sum = 0.0, worst = 0.0;
@@ -297,7 +298,8 @@ TEST_CASE("colmap export: OPENCV images are the resources' bytes", "[colmap_expo
   REQUIRE(summary.image_files == 4);
   const auto vertex = m.map.vertex_ids(m.missions[1])[1];
   const auto& frame = m.map.vertex(vertex).frames[1];
-  const auto bytes = m.map.resources().Load(mapstore::ResourceType::kImage, frame.image_resource_id);
+  const auto bytes =
+      m.map.resources().Load(mapstore::ResourceType::kImage, frame.image_resource_id);
   REQUIRE(testing::ReadText(dir + "/images/" + vertex.Hex() + "_cam1.png") == *bytes);
   // Cancelled while writing images: no model text file.
   const std::string cancelled = ScratchFolder("colmap_cancel") + "/model";

@@ -1,8 +1,9 @@
 // csv_export: row counts equal the map's, every row has its header's columns, values read back
 // exactly, a landmark's observation rows are its observations, mission selection keeps every
 // reference inside the export.
-#include <catch2/catch.hpp>
+#include "vilma/mapping/export/csv_export.h"
 
+#include <catch2/catch.hpp>
 #include <filesystem>
 #include <map>
 #include <set>
@@ -10,7 +11,6 @@
 #include "mapping_export/data_export_test_util.h"
 #include "mapstore/synthetic_map.h"
 #include "vilma/core/error.h"
-#include "vilma/mapping/export/csv_export.h"
 
 namespace vilma::mapping {
 namespace {
@@ -88,7 +88,8 @@ TEST_CASE("csv export: counts, columns and exact values of the whole map", "[csv
 
   std::size_t observations = 0, keypoints = 0, imu_samples = 0;
   for (const MissionId& m : map.mission_ids()) {
-    for (const LandmarkId& l : map.landmark_ids(m)) observations += map.landmark(l).observations.size();
+    for (const LandmarkId& l : map.landmark_ids(m))
+      observations += map.landmark(l).observations.size();
     for (const VertexId& v : map.vertex_ids(m)) {
       for (const auto& f : map.vertex(v).frames) keypoints += f.size();
     }
@@ -193,8 +194,10 @@ TEST_CASE("csv export: a landmark's observation rows are its observations", "[cs
     missions.insert(row.at("mission_id"));
     VertexId v;
     REQUIRE(mapstore::Id::FromHex(row.at("vertex_id"), &v));
-    const Eigen::Vector2d uv =
-        map.vertex(v).frames[std::stoi(row.at("camera"))].keypoints[std::stoi(row.at("keypoint"))].uv;
+    const Eigen::Vector2d uv = map.vertex(v)
+                                   .frames[std::stoi(row.at("camera"))]
+                                   .keypoints[std::stoi(row.at("keypoint"))]
+                                   .uv;
     REQUIRE(Num(row, "u_px") == uv.x());
     REQUIRE(Num(row, "v_px") == uv.y());
   }
@@ -207,8 +210,8 @@ TEST_CASE("csv export: a landmark's observation rows are its observations", "[cs
   // The keypoint rows of those observations name the landmark.
   std::size_t named = 0;
   for (const auto& row : ReadTable(dir + "/keypoints.csv").rows) {
-    if (expected.count({row.at("vertex_id"), std::stoi(row.at("camera")),
-                        std::stoi(row.at("keypoint"))})) {
+    if (expected.count(
+            {row.at("vertex_id"), std::stoi(row.at("camera")), std::stoi(row.at("keypoint"))})) {
       REQUIRE(row.at("landmark_id") == best.Hex());
       ++named;
     }
@@ -227,7 +230,8 @@ TEST_CASE("csv export: one mission keeps every reference inside the export", "[c
   options.missions = {second};
   const CsvExportSummary summary = ExportCsv(map, options);
   std::set<std::string> vertex_ids, landmark_ids;
-  for (const auto& row : ReadTable(dir + "/vertices.csv").rows) vertex_ids.insert(row.at("vertex_id"));
+  for (const auto& row : ReadTable(dir + "/vertices.csv").rows)
+    vertex_ids.insert(row.at("vertex_id"));
   for (const auto& row : ReadTable(dir + "/landmarks.csv").rows) {
     landmark_ids.insert(row.at("landmark_id"));
     REQUIRE(row.at("mission_id") == second.Hex());

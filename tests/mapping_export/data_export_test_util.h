@@ -16,17 +16,15 @@
 #pragma once
 
 #include <catch2/catch.hpp>
-
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <sstream>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
-#include <opencv2/imgcodecs.hpp>
 
 #include "vilma/core/progress.h"
 #include "vilma/core/rig.h"
@@ -124,7 +122,7 @@ struct ProjectedMapOptions {
 struct ProjectedMap {
   mapstore::VIMap map;
   std::vector<mapstore::MissionId> missions;
-  std::size_t frames = 0;        // vertices x cameras
+  std::size_t frames = 0;  // vertices x cameras
   std::size_t keypoints = 0;
   std::size_t observations = 0;  // of all landmarks
   std::size_t good = 0, bad = 0, unknown = 0;
@@ -154,8 +152,8 @@ inline ProjectedMap MakeProjectedMap(const ProjectedMapOptions& o) {
     CameraConfig cam;
     cam.name = "cam" + std::to_string(c);
     cam.camera = ProjectedMapCamera(o.model);
-    const Eigen::Matrix3d R = (c == 0 ? Eigen::Matrix3d::Identity()
-                                      : yaw(-5 * kDeg).toRotationMatrix()) * R_I_C;
+    const Eigen::Matrix3d R =
+        (c == 0 ? Eigen::Matrix3d::Identity() : yaw(-5 * kDeg).toRotationMatrix()) * R_I_C;
     cam.T_I_C = Transformation(R, Eigen::Vector3d(0.1, c == 0 ? 0.05 : -0.05, 0.0));
     rig.cameras.push_back(cam);
   }

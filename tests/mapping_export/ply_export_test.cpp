@@ -1,7 +1,8 @@
 // export_landmarks_ply: the file parses back (binary and ASCII) to the map's landmarks in G with
 // the asked colours, the good-only filter and the header's frame statement.
-#include <catch2/catch.hpp>
+#include "vilma/mapping/export/ply_export.h"
 
+#include <catch2/catch.hpp>
 #include <cstring>
 #include <filesystem>
 #include <sstream>
@@ -10,7 +11,6 @@
 #include "mapstore/synthetic_map.h"
 #include "vilma/core/error.h"
 #include "vilma/mapping/export/map_plot.h"
-#include "vilma/mapping/export/ply_export.h"
 
 namespace vilma::mapping {
 namespace {
@@ -55,8 +55,8 @@ PlyFile ParsePly(const std::string& bytes) {
     if (l.rfind("property ", 0) == 0) ply.properties.push_back(l.substr(9));
   }
   const std::vector<std::string> expected = {
-      "double x", "double y", "double z", "uchar red", "uchar green", "uchar blue",
-      "uchar quality", "ushort mission", "uint observations"};
+      "double x",   "double y",      "double z",       "uchar red",        "uchar green",
+      "uchar blue", "uchar quality", "ushort mission", "uint observations"};
   REQUIRE(ply.properties == expected);
   if (ply.binary) {
     const std::size_t record = 3 * 8 + 3 + 1 + 2 + 4;

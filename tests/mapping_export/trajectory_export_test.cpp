@@ -1,7 +1,8 @@
 // export_trajectory_to_csv: files read back by vilma's trajectory loader (the one `vilma eval`
 // uses) give the map's poses; evo's reader rules hold; naming, frames and bad input.
-#include <catch2/catch.hpp>
+#include "vilma/mapping/export/trajectory_export.h"
 
+#include <catch2/catch.hpp>
 #include <filesystem>
 
 #include "mapping_export/data_export_test_util.h"
@@ -9,7 +10,6 @@
 #include "vilma/core/error.h"
 #include "vilma/core/trajectory.h"
 #include "vilma/core/trajectory_eval.h"
-#include "vilma/mapping/export/trajectory_export.h"
 
 namespace vilma::mapping {
 namespace {
@@ -69,7 +69,8 @@ void RequireEvoReadable(const std::string& path, char delimiter, std::size_t fie
   REQUIRE(rows > 0);
 }
 
-TEST_CASE("trajectory export: TUM in G, one file per mission, read back equal", "[trajectory_export]") {
+TEST_CASE("trajectory export: TUM in G, one file per mission, read back equal",
+          "[trajectory_export]") {
   const VIMap map = TwoMissionMap();
   const std::string dir = ScratchFolder("traj_tum");
   TrajectoryExportOptions options;
@@ -182,7 +183,8 @@ TEST_CASE("trajectory export: rpg and kitti read back, several missions into a f
   RequireSamePoses(read, Expected(map, id, false), false);
 }
 
-TEST_CASE("trajectory export: bad input names the problem and writes nothing", "[trajectory_export]") {
+TEST_CASE("trajectory export: bad input names the problem and writes nothing",
+          "[trajectory_export]") {
   VIMap map = TwoMissionMap();
   const std::string dir = ScratchFolder("traj_bad");
   TrajectoryExportOptions options;

@@ -68,8 +68,9 @@ void Register(CommandRegistry* registry) {
                    "KITTI trajectories, in frame G or M (vilma eval, evo)")
           .FlagAt("format", [](T& o) -> std::string& { return o.export_options.format; },
                   "tum, asl (euroc: 17 columns), rpg or kitti", {"csv_export_format"})
-          .FlagAt("frame", [](T& o) -> std::string& { return o.export_options.frame; },
-                  "G (global: T_G_M T_M_I) or M (mission: T_M_I)")
+          .FlagAt(
+              "frame", [](T& o) -> std::string& { return o.export_options.frame; },
+              "G (global: T_G_M T_M_I) or M (mission: T_M_I)")
           .Run([](CommandContext& c, const T& o) {
             c.out() << mapping::ExportTrajectories(c.map(), o.Resolve(c.map()), c.progress())
                            .BriefReport();
@@ -95,26 +96,27 @@ void Register(CommandRegistry* registry) {
           .FlagAt("export_keypoints", [](S& o) -> bool& { return o.export_options.keypoints; },
                   "write keypoints.csv (every keypoint: uv, track, landmark)",
                   {"csv_export_tracks_and_keypoints"})
-          .FlagAt("export_descriptors",
-                  [](S& o) -> bool& { return o.export_options.descriptors; },
+          .FlagAt("export_descriptors", [](S& o) -> bool& { return o.export_options.descriptors; },
                   "write descriptors.csv (descriptor bytes as hex)", {"csv_export_descriptors"})
           .FlagAt("export_imu", [](S& o) -> bool& { return o.export_options.imu; },
                   "write imu.csv (every IMU sample of every IMU edge)", {"csv_export_imu_data"})
           .Run([](CommandContext& c, const S& o) {
-            c.out() << mapping::ExportCsv(c.map(), o.Resolve(c.map()), c.progress())
-                           .BriefReport();
+            c.out() << mapping::ExportCsv(c.map(), o.Resolve(c.map()), c.progress()).BriefReport();
           }));
 
   using P = PlyCommandOptions;
   registry->Add(
       ExportCommand<P>("export_landmarks_ply", ".ply file, or a folder (landmarks.ply in it)", {})
           .Summary("landmark positions in G as a PLY point cloud coloured by mission or quality")
-          .FlagAt("color_by", [](P& o) -> std::string& { return o.export_options.color_by; },
-                  "mission or quality (good green, bad red, unknown grey)")
-          .FlagAt("good_only", [](P& o) -> bool& { return o.export_options.good_only; },
-                  "only landmarks of quality good")
-          .FlagAt("binary", [](P& o) -> bool& { return o.export_options.binary; },
-                  "binary little-endian PLY (false: ASCII)")
+          .FlagAt(
+              "color_by", [](P& o) -> std::string& { return o.export_options.color_by; },
+              "mission or quality (good green, bad red, unknown grey)")
+          .FlagAt(
+              "good_only", [](P& o) -> bool& { return o.export_options.good_only; },
+              "only landmarks of quality good")
+          .FlagAt(
+              "binary", [](P& o) -> bool& { return o.export_options.binary; },
+              "binary little-endian PLY (false: ASCII)")
           .Run([](CommandContext& c, const P& o) {
             c.out() << mapping::ExportLandmarksPly(c.map(), o.Resolve(c.map()), c.progress())
                            .BriefReport();
@@ -123,27 +125,28 @@ void Register(CommandRegistry* registry) {
   using C = ColmapCommandOptions;
   registry->Add(
       ExportCommand<C>("export_colmap",
-                       "model folder (created): cameras.txt, images.txt, points3D.txt, images/",
-                       {})
+                       "model folder (created): cameras.txt, images.txt, points3D.txt, images/", {})
           .Summary("COLMAP text model (world = G): cameras, vertex x camera images with "
                    "keypoints, landmarks with tracks; images where the map has them")
-          .FlagAt("camera_model",
-                  [](C& o) -> std::string& { return o.export_options.camera_model; },
-                  "auto (OPENCV / OPENCV_FISHEYE / PINHOLE as calibrated) or pinhole "
-                  "(undistorted cameras, keypoints and images)")
-          .FlagAt("undistort_alpha",
-                  [](C& o) -> double& { return o.export_options.undistort_alpha; },
-                  "pinhole: 0 keeps valid pixels only, 1 every source pixel")
-          .FlagAt("export_images", [](C& o) -> bool& { return o.export_options.images; },
-                  "write images/ from the map's image resources")
-          .FlagAt("landmarks", [](C& o) -> std::string& { return o.export_options.landmarks; },
-                  "landmark qualities that become points: good, unknown, bad (comma separated)")
-          .FlagAt("min_track_length",
-                  [](C& o) -> int& { return o.export_options.min_track_length; },
-                  "points need this many observations from exported images")
+          .FlagAt(
+              "camera_model", [](C& o) -> std::string& { return o.export_options.camera_model; },
+              "auto (OPENCV / OPENCV_FISHEYE / PINHOLE as calibrated) or pinhole "
+              "(undistorted cameras, keypoints and images)")
+          .FlagAt(
+              "undistort_alpha", [](C& o) -> double& { return o.export_options.undistort_alpha; },
+              "pinhole: 0 keeps valid pixels only, 1 every source pixel")
+          .FlagAt(
+              "export_images", [](C& o) -> bool& { return o.export_options.images; },
+              "write images/ from the map's image resources")
+          .FlagAt(
+              "landmarks", [](C& o) -> std::string& { return o.export_options.landmarks; },
+              "landmark qualities that become points: good, unknown, bad (comma separated)")
+          .FlagAt(
+              "min_track_length", [](C& o) -> int& { return o.export_options.min_track_length; },
+              "points need this many observations from exported images")
           .Run([](CommandContext& c, const C& o) {
-            c.out() << mapping::ExportColmap(c.map(), o.Resolve(c.map()), c.progress())
-                           .BriefReport();
+            c.out()
+                << mapping::ExportColmap(c.map(), o.Resolve(c.map()), c.progress()).BriefReport();
           }));
 }
 

@@ -38,7 +38,8 @@ CalibrationExportSummary ExportCalibrations(const mapstore::VIMap& map,
     const SensorRig& rig = map.mission(id).rig;
     const std::string where = "mission " + id.Hex();
     if (rig.cameras.empty()) {
-      throw InputError(FormatInputError(where, "rig", "expected a recorded sensor rig (it has no camera)"));
+      throw InputError(
+          FormatInputError(where, "rig", "expected a recorded sensor rig (it has no camera)"));
     }
     ThrowIfInvalid(rig.Validate(), where, "rig");
     texts.push_back(SensorRigToYaml(rig));

@@ -2,11 +2,10 @@
 
 #include <cmath>
 #include <filesystem>
-#include <sstream>
-#include <unordered_map>
-
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
+#include <sstream>
+#include <unordered_map>
 
 #include "export_files.h"
 #include "vilma/core/asl_dataset.h"
@@ -36,14 +35,14 @@ struct ColmapCamera {
   Camera source;               // the map's camera
   Camera exported;             // the camera the exported keypoints belong to (vilma pixels)
   bool undistort = false;
-  cv::Mat map_x, map_y;        // source -> exported remap tables (made on first use)
+  cv::Mat map_x, map_y;  // source -> exported remap tables (made on first use)
 };
 
 struct ColmapImage {
   VertexId vertex;
-  uint32_t camera = 0;         // rig camera index
+  uint32_t camera = 0;  // rig camera index
   std::size_t colmap_camera = 0;
-  Transformation T_C_G;        // world (G) to camera
+  Transformation T_C_G;  // world (G) to camera
   std::string name;
   std::vector<Eigen::Vector2d> uv;  // exported keypoints, vilma pixels
   std::vector<bool> usable;         // false: not undistortable (left out of tracks)
@@ -93,7 +92,9 @@ std::string CamerasText(const std::vector<ColmapCamera>& cameras) {
   std::string t =
       "# Camera list with one line of data per camera:\n"
       "#   CAMERA_ID, MODEL, WIDTH, HEIGHT, PARAMS[]\n"
-      "# Number of cameras: " + std::to_string(cameras.size()) + "\n"
+      "# Number of cameras: " +
+      std::to_string(cameras.size()) +
+      "\n"
       "# vilma export_colmap: one camera per (mission, rig camera); pixel centre of the top-left "
       "pixel at (0.5, 0.5)\n";
   for (std::size_t i = 0; i < cameras.size(); ++i) {
@@ -111,8 +112,9 @@ std::string ImagesText(const std::vector<ColmapImage>& images, std::size_t obser
       "# Image list with two lines of data per image:\n"
       "#   IMAGE_ID, QW, QX, QY, QZ, TX, TY, TZ, CAMERA_ID, NAME\n"
       "#   POINTS2D[] as (X, Y, POINT3D_ID)\n"
-      "# Number of images: " + std::to_string(images.size()) +
-      ", mean observations per image: " + Exact(mean) + "\n"
+      "# Number of images: " +
+      std::to_string(images.size()) + ", mean observations per image: " + Exact(mean) +
+      "\n"
       "# vilma export_colmap: pose T_C_G (world = frame G to camera), NAME <vertex id>_cam<k>.png, "
       "POINT2D_IDX = keypoint index\n";
   for (std::size_t i = 0; i < images.size(); ++i) {
@@ -137,8 +139,9 @@ std::string PointsText(const std::vector<ColmapPoint>& points, std::size_t obser
   std::string t =
       "# 3D point list with one line of data per point:\n"
       "#   POINT3D_ID, X, Y, Z, R, G, B, ERROR, TRACK[] as (IMAGE_ID, POINT2D_IDX)\n"
-      "# Number of points: " + std::to_string(points.size()) + ", mean track length: " +
-      Exact(mean) + "\n"
+      "# Number of points: " +
+      std::to_string(points.size()) + ", mean track length: " + Exact(mean) +
+      "\n"
       "# vilma export_colmap: landmarks p_G [m] in frame G, ERROR mean reprojection error [px]\n";
   for (std::size_t i = 0; i < points.size(); ++i) {
     const ColmapPoint& point = points[i];
@@ -163,18 +166,17 @@ std::string ExportImageBytes(const VIMap& map, const ColmapImage& image, ColmapC
   const std::shared_ptr<const std::string> bytes =
       map.resources().Load(mapstore::ResourceType::kImage, image.image_resource);
   const std::string where = "image resource " + info.RelativePath();
-  const cv::Mat raw(1, static_cast<int>(bytes->size()), CV_8UC1,
-                    const_cast<char*>(bytes->data()));
+  const cv::Mat raw(1, static_cast<int>(bytes->size()), CV_8UC1, const_cast<char*>(bytes->data()));
   cv::Mat picture = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
   if (picture.empty()) {
     throw InputError(FormatInputError(where, "", "expected an image OpenCV can decode"));
   }
   if (picture.cols != camera->width || picture.rows != camera->height) {
-    throw InputError(FormatInputError(
-        where, "size",
-        "expected " + std::to_string(camera->width) + "x" + std::to_string(camera->height) +
-            " as the rig's camera, found " + std::to_string(picture.cols) + "x" +
-            std::to_string(picture.rows)));
+    throw InputError(
+        FormatInputError(where, "size",
+                         "expected " + std::to_string(camera->width) + "x" +
+                             std::to_string(camera->height) + " as the rig's camera, found " +
+                             std::to_string(picture.cols) + "x" + std::to_string(picture.rows)));
   }
   if (camera->undistort) {
     if (camera->map_x.empty()) {
@@ -225,8 +227,8 @@ std::string ColmapExportOptions::Validate() const {
 std::string ColmapExportSummary::BriefReport() const {
   std::ostringstream s;
   s << "colmap: " << cameras << " cameras, " << images << " images (" << image_files
-    << " image files), " << points << " points, " << observations << " observations in "
-    << folder << " (world = frame G)\n";
+    << " image files), " << points << " points, " << observations << " observations in " << folder
+    << " (world = frame G)\n";
   s << "  reprojection error mean " << mean_reprojection_error_px << " px, max "
     << max_reprojection_error_px << " px; landmarks left out: " << landmarks_skipped_quality
     << " by quality, " << landmarks_skipped_track << " by track length; observations dropped "
@@ -253,7 +255,8 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
     const mapstore::Mission& mission = map.mission(missions[mi]);
     const std::string where = "mission " + mission.id.Hex();
     if (mission.rig.cameras.empty()) {
-      throw InputError(FormatInputError(where, "rig", "expected a recorded sensor rig (no camera)"));
+      throw InputError(
+          FormatInputError(where, "rig", "expected a recorded sensor rig (no camera)"));
     }
     const std::size_t camera_base = cameras.size();
     for (std::size_t c = 0; c < mission.rig.cameras.size(); ++c) {
@@ -321,11 +324,11 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
         const std::size_t index = found->second + o.camera;
         if (index >= images.size() || images[index].vertex != o.vertex_id ||
             o.keypoint >= images[index].uv.size()) {
-          throw InputError(FormatInputError(
-              "landmark " + landmark_id.Hex(), "observations",
-              "expected an existing keypoint, found vertex " + o.vertex_id.Hex() + " camera " +
-                  std::to_string(o.camera) + " keypoint " + std::to_string(o.keypoint) +
-                  " (run check_map_consistency)"));
+          throw InputError(
+              FormatInputError("landmark " + landmark_id.Hex(), "observations",
+                               "expected an existing keypoint, found vertex " + o.vertex_id.Hex() +
+                                   " camera " + std::to_string(o.camera) + " keypoint " +
+                                   std::to_string(o.keypoint) + " (run check_map_consistency)"));
         }
         const ColmapImage& image = images[index];
         const Eigen::Vector3d p_C = image.T_C_G * point.p_G;
@@ -374,7 +377,8 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
         continue;
       }
       cv::Mat decoded;
-      const std::string bytes = ExportImageBytes(map, image, &cameras[image.colmap_camera], &decoded);
+      const std::string bytes =
+          ExportImageBytes(map, image, &cameras[image.colmap_camera], &decoded);
       if (summary.image_files == 0) export_files::CreateFolder(image_folder, "out");
       WriteFileAtomically((fs::path(image_folder) / image.name).string(), bytes);
       ++summary.image_files;

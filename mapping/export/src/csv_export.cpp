@@ -109,14 +109,18 @@ std::map<std::string, std::string> MakeCsvFiles(const VIMap& map, const CsvExpor
   vertices_csv = "vertex_id,mission_id,index,t_ns" + PoseColumns("G_I") + PoseColumns("M_I") +
                  ",v_M_x,v_M_y,v_M_z,b_g_x,b_g_y,b_g_z,b_a_x,b_a_y,b_a_z,keypoints,"
                  "keypoints_with_landmark\n";
-  edges_csv = "edge_id,mission_id,type,from_vertex_id,to_vertex_id,imu_samples,imu_t_first_ns,"
-              "imu_t_last_ns" + PoseColumns("A_B") + ",switch_variable,switch_variable_variance\n";
-  landmarks_csv = "landmark_id,mission_id,store_vertex_id,p_G_x,p_G_y,p_G_z,p_M_x,p_M_y,p_M_z,"
-                  "quality,observations,cov_G_xx,cov_G_xy,cov_G_xz,cov_G_yy,cov_G_yz,cov_G_zz\n";
+  edges_csv =
+      "edge_id,mission_id,type,from_vertex_id,to_vertex_id,imu_samples,imu_t_first_ns,"
+      "imu_t_last_ns" +
+      PoseColumns("A_B") + ",switch_variable,switch_variable_variance\n";
+  landmarks_csv =
+      "landmark_id,mission_id,store_vertex_id,p_G_x,p_G_y,p_G_z,p_M_x,p_M_y,p_M_z,"
+      "quality,observations,cov_G_xx,cov_G_xy,cov_G_xz,cov_G_yy,cov_G_yz,cov_G_zz\n";
   observations_csv = "landmark_id,vertex_id,mission_id,camera,keypoint,u_px,v_px\n";
   if (keypoints_csv != nullptr) {
-    *keypoints_csv = "vertex_id,camera,keypoint,u_px,v_px,scale_px,orientation_rad,score,"
-                     "track_id,landmark_id\n";
+    *keypoints_csv =
+        "vertex_id,camera,keypoint,u_px,v_px,scale_px,orientation_rad,score,"
+        "track_id,landmark_id\n";
   }
   if (descriptors_csv != nullptr) {
     *descriptors_csv = "vertex_id,camera,keypoint,descriptor_type,descriptor_hex\n";
@@ -130,8 +134,7 @@ std::map<std::string, std::string> MakeCsvFiles(const VIMap& map, const CsvExpor
   for (const MissionId& mission_id : missions) {
     const mapstore::Mission& mission = map.mission(mission_id);
     std::string row = mission_id.Hex() + "," + Field(mission.name) + "," +
-                      (mission.baseframe_known ? "1" : "0") + "," +
-                      (mission.complete ? "1" : "0");
+                      (mission.baseframe_known ? "1" : "0") + "," + (mission.complete ? "1" : "0");
     AppendPose(mission.T_G_M, &row);
     row += "," + IdText(mission.root_vertex_id) + "," + std::to_string(mission.rig.cameras.size()) +
            "," + std::to_string(map.vertex_ids(mission_id).size()) + "," +
@@ -152,7 +155,8 @@ std::map<std::string, std::string> MakeCsvFiles(const VIMap& map, const CsvExpor
         const mapstore::VisualFrame& f = v.frames[c];
         keypoints += f.size();
         for (std::size_t k = 0; k < f.size(); ++k) {
-          const bool exported = f.landmark_ids[k].IsValid() && landmark_set.count(f.landmark_ids[k]);
+          const bool exported =
+              f.landmark_ids[k].IsValid() && landmark_set.count(f.landmark_ids[k]);
           with_landmark += f.landmark_ids[k].IsValid();
           const std::string key = v.id.Hex() + "," + std::to_string(c) + "," + std::to_string(k);
           if (keypoints_csv != nullptr) {
@@ -231,8 +235,8 @@ std::map<std::string, std::string> MakeCsvFiles(const VIMap& map, const CsvExpor
         const Eigen::Vector2d& uv = observer.frames.at(o.camera).keypoints.at(o.keypoint).uv;
         observations_csv += landmark_id.Hex() + "," + o.vertex_id.Hex() + "," +
                             observer.mission_id.Hex() + "," + std::to_string(o.camera) + "," +
-                            std::to_string(o.keypoint) + "," + Exact(uv.x()) + "," +
-                            Exact(uv.y()) + "\n";
+                            std::to_string(o.keypoint) + "," + Exact(uv.x()) + "," + Exact(uv.y()) +
+                            "\n";
         ++observations;
       }
       rows["observations.csv"] += observations;

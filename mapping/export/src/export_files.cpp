@@ -24,8 +24,9 @@ std::vector<MissionId> MissionsToExport(const mapstore::VIMap& map,
   std::vector<MissionId> missions;
   for (const MissionId& id : selected) {
     if (!map.HasMission(id)) {
-      throw InputError(FormatInputError("--" + flag, "", "expected a mission of the map, found " +
-                                                             id.Hex() + " (not in the map)"));
+      throw InputError(FormatInputError(
+          "--" + flag, "",
+          "expected a mission of the map, found " + id.Hex() + " (not in the map)"));
     }
     bool seen = false;
     for (const MissionId& m : missions) seen = seen || m == id;

@@ -49,8 +49,8 @@ std::string PlyExportOptions::Validate() const {
 std::string PlyExportSummary::BriefReport() const {
   std::ostringstream s;
   s << "ply: " << points << " landmarks of " << missions
-    << (missions == 1 ? " mission" : " missions") << " in frame G -> " << path << " ("
-    << bytes << " bytes)";
+    << (missions == 1 ? " mission" : " missions") << " in frame G -> " << path << " (" << bytes
+    << " bytes)";
   if (skipped_not_good > 0) s << ", " << skipped_not_good << " not good left out";
   return s.str() + "\n";
 }
@@ -99,8 +99,8 @@ std::string MakeLandmarksPly(const VIMap& map, const PlyExportOptions& options,
       }
       Point p;
       p.p_G = map.LandmarkPosition_G(id);
-      p.rgb = options.color_by == "quality" ? LandmarkQualityColorRgb(l.quality)
-                                            : MissionColorRgb(mi);
+      p.rgb =
+          options.color_by == "quality" ? LandmarkQualityColorRgb(l.quality) : MissionColorRgb(mi);
       p.quality = static_cast<uint8_t>(l.quality);
       p.mission = static_cast<uint16_t>(mi);
       p.observations = static_cast<uint32_t>(l.observations.size());
@@ -121,10 +121,11 @@ std::string MakeLandmarksPly(const VIMap& map, const PlyExportOptions& options,
            (mission.name.empty() ? "" : " " + OneLine(mission.name)) + "\n";
   }
   ply += "element vertex " + std::to_string(points.size()) + "\n";
-  ply += "property double x\nproperty double y\nproperty double z\n"
-         "property uchar red\nproperty uchar green\nproperty uchar blue\n"
-         "property uchar quality\nproperty ushort mission\nproperty uint observations\n"
-         "end_header\n";
+  ply +=
+      "property double x\nproperty double y\nproperty double z\n"
+      "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+      "property uchar quality\nproperty ushort mission\nproperty uint observations\n"
+      "end_header\n";
   for (const Point& p : points) {
     if (options.binary) {
       for (int k = 0; k < 3; ++k) AppendDouble(p.p_G[k], &ply);

@@ -117,8 +117,9 @@ std::vector<ExportedState> MissionStates(const VIMap& map, const MissionId& miss
       throw InputError(FormatInputError(
           "mission " + mission_id.Hex(), "vertices",
           "expected strictly increasing vertex times (a trajectory has one pose per time), "
-          "found vertices " + ids[i - 1].Hex() + " and " + ids[i].Hex() + " both at t = " +
-              std::to_string(v.t_ns) + " ns"));
+          "found vertices " +
+              ids[i - 1].Hex() + " and " + ids[i].Hex() + " both at t = " + std::to_string(v.t_ns) +
+              " ns"));
     }
     ExportedState s;
     s.t_ns = v.t_ns;
@@ -172,8 +173,8 @@ std::string FormatTrajectory(const std::vector<ExportedState>& states,
         text += "# timestamp[s] tx ty tz qx qy qz qw\n";
       } else {
         // maplab's rpg header (p_G_Ix ...), with the frame actually used.
-        text += "# timestamp [s] p_" + W + "_Ix p_" + W + "_Iy p_" + W + "_Iz q_" + W +
-                "_Ix q_" + W + "_Iy q_" + W + "_Iz q_" + W + "_Iw\n";
+        text += "# timestamp [s] p_" + W + "_Ix p_" + W + "_Iy p_" + W + "_Iz q_" + W + "_Ix q_" +
+                W + "_Iy q_" + W + "_Iz q_" + W + "_Iw\n";
       }
       for (const ExportedState& s : states) {
         text += export_files::SecondsFromNs(s.t_ns) + pose_fields(s.T_W_I, false, ' ') + "\n";
@@ -183,9 +184,10 @@ std::string FormatTrajectory(const std::vector<ExportedState>& states,
     case TrajectoryExportFormat::kAsl: {
       // One header line only (EuRoC's own files have one; pandas takes the first line as the
       // column names): it names the frame in every pose and velocity column.
-      text += "#timestamp [ns],p_" + W + "_I_x [m],p_" + W + "_I_y [m],p_" + W + "_I_z [m],q_" +
-              W + "_I_w [],q_" + W + "_I_x [],q_" + W + "_I_y [],q_" + W + "_I_z [],v_" + W +
-              "_I_x [m s^-1],v_" + W + "_I_y [m s^-1],v_" + W + "_I_z [m s^-1],b_w_I_x [rad s^-1]," +
+      text += "#timestamp [ns],p_" + W + "_I_x [m],p_" + W + "_I_y [m],p_" + W + "_I_z [m],q_" + W +
+              "_I_w [],q_" + W + "_I_x [],q_" + W + "_I_y [],q_" + W + "_I_z [],v_" + W +
+              "_I_x [m s^-1],v_" + W + "_I_y [m s^-1],v_" + W +
+              "_I_z [m s^-1],b_w_I_x [rad s^-1]," +
               "b_w_I_y [rad s^-1],b_w_I_z [rad s^-1],b_a_I_x [m s^-2],b_a_I_y [m s^-2]," +
               "b_a_I_z [m s^-2]\n";
       for (const ExportedState& s : states) {
@@ -216,8 +218,7 @@ std::string FormatTrajectory(const std::vector<ExportedState>& states,
   return text;
 }
 
-TrajectoryExportSummary ExportTrajectories(const VIMap& map,
-                                           const TrajectoryExportOptions& options,
+TrajectoryExportSummary ExportTrajectories(const VIMap& map, const TrajectoryExportOptions& options,
                                            ProgressObserver* progress) {
   ThrowIfInvalid(options.Validate(), "export_trajectory_to_csv");
   TrajectoryExportFormat format;
@@ -244,8 +245,8 @@ TrajectoryExportSummary ExportTrajectories(const VIMap& map,
     summary.poses += states.size();
     ReportProgress(progress, i + 1);
   }
-  const std::vector<std::string> paths = export_files::PerMissionFiles(
-      options.out, "out", missions, "trajectory", Extension(format));
+  const std::vector<std::string> paths =
+      export_files::PerMissionFiles(options.out, "out", missions, "trajectory", Extension(format));
   for (std::size_t i = 0; i < paths.size(); ++i) {
     WriteFileAtomically(paths[i], texts[i]);
     summary.files[i].path = paths[i];

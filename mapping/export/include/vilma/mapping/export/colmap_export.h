@@ -60,10 +60,10 @@ struct ColmapExportSummary {
   std::string folder;
   std::size_t cameras = 0;
   std::size_t images = 0;
-  std::size_t image_files = 0;       // images written into images/
+  std::size_t image_files = 0;  // images written into images/
   std::size_t points = 0;
-  std::size_t observations = 0;      // track elements over all points
-  std::size_t keypoints = 0;         // POINTS2D entries over all images
+  std::size_t observations = 0;  // track elements over all points
+  std::size_t keypoints = 0;     // POINTS2D entries over all images
   std::size_t landmarks_skipped_quality = 0;
   std::size_t landmarks_skipped_track = 0;  // fewer than min_track_length observations left
   // Observations left out of tracks: the landmark is behind the camera, or (pinhole) the

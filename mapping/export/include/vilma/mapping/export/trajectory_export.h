@@ -77,8 +77,7 @@ struct ExportedState {
 // when two vertices have the same time (a trajectory needs strictly increasing stamps), or when
 // the mission has no vertex.
 std::vector<ExportedState> MissionStates(const mapstore::VIMap& map,
-                                         const mapstore::MissionId& mission_id,
-                                         ExportFrame frame);
+                                         const mapstore::MissionId& mission_id, ExportFrame frame);
 
 // The mission's poses as a core Trajectory (what `vilma eval` reads back).
 Trajectory MissionTrajectory(const mapstore::VIMap& map, const mapstore::MissionId& mission_id,
