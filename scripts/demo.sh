@@ -7,8 +7,10 @@
 #      the simulator's ground truth (vilma eval: ATE/RPE table, JSON and a plot);
 #   5. run the odometry on the real EuRoC slice (static start: drift and tilt);
 #   6. map then localize: vilma-estimatord builds a VI-map of the room session (--save-map),
-#      then localizes a second session of the same room against it (--localization-map) and
-#      publishes VILMA_POSE, evaluated against that session's ground truth.
+#   7. processes the map in the console (vilma console --script: statistics, landmark quality,
+#      keyframing, consistency, exports to CSV / TUM / PLY / COLMAP, a PNG and an HTML view),
+#   8. then localizes a second session of the same room against the processed map
+#      (--localization-map) and publishes VILMA_POSE, evaluated against its ground truth.
 # Generated data goes to ${VILMA_CACHE:-~/.cache/vilma}/demo, never into the repository.
 set -euo pipefail
 
@@ -79,11 +81,30 @@ rm -rf "$loc" && mkdir -p "$loc"
     --save-map "$loc/map" --lcm-url "file://$loc/out0.lcmlog?mode=w" > "$loc/daemon0.log" 2>&1
 grep -E '^vilma-estimatord: map:' "$loc/daemon0.log" || tail -5 "$loc/daemon0.log"
 
-step "localize: a second session of the same room (coming back along the first one's path, other lighting) against the map"
+step "console: process the map offline (vilma console --script, docs/console.md)"
+mkdir -p "$loc/console"
+cat > "$loc/process.vilma" <<SCRIPT
+# The demo's map processing: each command echoes with its wall time; the first failure stops.
+load $loc/map --map_key=room
+map_stats
+check_map_consistency
+export_trajectory_to_csv --out=$loc/console/room-vio.txt --format=tum --frame=M
+csv_export --out=$loc/console/csv
+export_landmarks_ply --out=$loc/console/landmarks.ply --color_by=quality
+export_colmap --out=$loc/console/colmap --export_images=false
+export_ncamera_calibration --out=$loc/console/rig
+plot_map --out=$loc/console/map.png --title="demo room"
+export_html --out=$loc/console/map.html --title="demo room"
+save --out=$loc/map-processed
+SCRIPT
+"$bin/vilma" console --script "$loc/process.vilma"
+ls "$loc/console"
+
+step "localize: a second session of the same room (coming back along the first one's path, other lighting) against the processed map"
 "$bin/vilma-sim" room --session 1 --revisit 30 --out "$loc/session1" --seconds 20 --seed 7 > /dev/null
 "$bin/vilma-replay" "$loc/session1" --to-log "$loc/session1.lcmlog" --quiet
 "$bin/vilma-estimatord" --rig "$loc/session1/rig.yaml" --input-log "$loc/session1.lcmlog" \
-    --localization-map "$loc/map" --lcm-url "file://$loc/out1.lcmlog?mode=w" \
+    --localization-map "$loc/map-processed" --lcm-url "file://$loc/out1.lcmlog?mode=w" \
     > "$loc/daemon1.log" 2>&1
 grep -E '^ *loc_(attempts|initialized|poses_published|tgm_updates|stage_us_p50)' "$loc/daemon1.log" || true
 "$bin/vilma-lcm-poses" "$loc/out1.lcmlog" --channel VILMA_POSE --out "$loc/pose.txt"
@@ -102,4 +123,4 @@ grep -E '^ *loc_(attempts|initialized|poses_published|tgm_updates|stage_us_p50)'
     --est "$loc/loc.txt" --align-from "$loc/map-alignment.json" --segments 1 --within 0.5 \
     | grep '^within'
 
-step "done: outputs in $cache (room-demo-eval.png, room-demo-eval.json, *-vio.txt, map-then-localize/)"
+step "done: outputs in $cache (room-demo-eval.png, room-demo-eval.json, *-vio.txt, map-then-localize/, map-then-localize/console/: map.png, map.html, exports)"

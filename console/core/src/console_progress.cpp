@@ -35,6 +35,8 @@ void ConsoleProgress::Advance(std::size_t done) {
   }
   const int decile = static_cast<int>(fraction * 10.0);
   if (decile <= last_decile_) return;
+  // Quick stages stay quiet: lines start once a stage has run for a second.
+  if (elapsed_s < 1.0) return;
   last_decile_ = decile;
   std::snprintf(line, sizeof(line), "  %s: %3d%% (%zu/%zu), %.1f s, ETA %.1f s\n", stage_.c_str(),
                 decile * 10, done, total_, elapsed_s, eta_s);

@@ -1,5 +1,6 @@
 // The console's ProgressObserver: a bar with percentage and ETA redrawn in place on a terminal
-// (at most 10 times a second), else one line per 10 %; cancellation from the Ctrl-C flag.
+// (at most 10 times a second), else one line per 10 % once the stage has run for a second;
+// cancellation from the Ctrl-C flag.
 #pragma once
 
 #include <atomic>
