@@ -20,16 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 using mapping::testing::ReadLines;
 
-struct Fixture {
-  std::ostringstream out, err;
-  ConsoleSession session{CommandRegistry::WithPlugins(), out, err};
-  CommandResult Run(const std::string& line) {
-    const CommandResult r = session.Execute(line);
-    INFO(line << "\n" << err.str());
-    return r;
-  }
-  const mapstore::VIMap& map() { return *session.maps().Get(session.maps().selected()).map; }
-};
+using Fixture = test::ConsoleFixture;
 
 // Loads both sessions as one map of two missions.
 void LoadBoth(Fixture* f) {

@@ -16,16 +16,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Fixture {
-  std::ostringstream out, err;
-  ConsoleSession session{CommandRegistry::WithPlugins(), out, err};
-  CommandResult Run(const std::string& line) {
-    const CommandResult r = session.Execute(line);
-    INFO(line << "\n" << err.str());
-    return r;
-  }
-  const mapstore::VIMap& Selected() { return *session.maps().Get(session.maps().selected()).map; }
-};
+using Fixture = test::ConsoleFixture;
 
 TEST_CASE("load, list, map_stats, mission_stats, check_map_consistency on a daemon map") {
   const auto& maps = test::TestMaps();
@@ -40,7 +31,7 @@ TEST_CASE("load, list, map_stats, mission_stats, check_map_consistency on a daem
   CHECK_THAT(f.out.str(), Catch::Contains("* session0: 1 missions"));
   f.out.str("");
   REQUIRE(f.Run("ms").ok());
-  const mapstore::VIMap& map = f.Selected();
+  const mapstore::VIMap& map = f.map();
   CHECK_THAT(f.out.str(), Catch::Contains(std::to_string(map.num_vertices())) &&
                               Catch::Contains("total") && Catch::Contains("on disk"));
   REQUIRE(f.Run("mission_stats").ok());
@@ -98,7 +89,7 @@ TEST_CASE("save writes a map that loads back equal; --overwrite replaces it atom
   CHECK(copy.num_landmarks() == original.num_landmarks());
   CHECK(copy.num_edges() == original.num_edges());
   REQUIRE(f.Run("rm " + original.mission_ids()[0].Hex().substr(0, 6)).ok());
-  CHECK(f.Selected().num_vertices() == 0);
+  CHECK(f.map().num_vertices() == 0);
   REQUIRE(f.Run("save --overwrite").ok());  // to dir/copy, where it was saved last
   CHECK(mapstore::LoadMap(dir + "/copy").num_vertices() == 0);
 }
@@ -109,10 +100,10 @@ TEST_CASE("load_merge_all_maps, join_all_maps and remove_mission keep the map co
   REQUIRE(f.Run("load_merge_all_maps --maps_folder=" + maps.maps_folder + " --map_key=merged").ok());
   const mapstore::VIMap a = mapstore::LoadMap(maps.session0_map);
   const mapstore::VIMap b = mapstore::LoadMap(maps.session1_map);
-  CHECK(f.Selected().mission_ids().size() == 2);
-  CHECK(f.Selected().num_vertices() == a.num_vertices() + b.num_vertices());
-  CHECK(f.Selected().mission_ids()[0] == a.mission_ids()[0]);  // sorted folder order
-  CHECK(mapstore::CheckMapConsistency(f.Selected()).ok());
+  CHECK(f.map().mission_ids().size() == 2);
+  CHECK(f.map().num_vertices() == a.num_vertices() + b.num_vertices());
+  CHECK(f.map().mission_ids()[0] == a.mission_ids()[0]);  // sorted folder order
+  CHECK(mapstore::CheckMapConsistency(f.map()).ok());
   // Loading the same maps again and joining fails (same ids) and changes nothing.
   REQUIRE(f.Run("load_all " + maps.maps_folder).ok());
   CHECK(f.session.maps().Keys().size() == 3);
@@ -123,11 +114,11 @@ TEST_CASE("load_merge_all_maps, join_all_maps and remove_mission keep the map co
   REQUIRE(f.Run("delete merged").ok());
   REQUIRE(f.Run("join_all_maps --target_map_key=joined").ok());
   CHECK(f.session.maps().Keys() == std::vector<std::string>{"joined"});
-  CHECK(f.Selected().num_vertices() == a.num_vertices() + b.num_vertices());
+  CHECK(f.map().num_vertices() == a.num_vertices() + b.num_vertices());
   REQUIRE(f.Run("remove_mission --map_mission=" + b.mission_ids()[0].Hex()).ok());
-  CHECK(f.Selected().num_vertices() == a.num_vertices());
-  CHECK(f.Selected().num_landmarks() == a.num_landmarks());
-  CHECK(mapstore::CheckMapConsistency(f.Selected()).ok());
+  CHECK(f.map().num_vertices() == a.num_vertices());
+  CHECK(f.map().num_landmarks() == a.num_landmarks());
+  CHECK(mapstore::CheckMapConsistency(f.map()).ok());
   r = f.Run("rm --map_mission=zzzz");
   CHECK_THAT(r.message, Catch::Contains("mission 'zzzz'"));
 }

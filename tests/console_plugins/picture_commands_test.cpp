@@ -14,15 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Fixture {
-  std::ostringstream out, err;
-  ConsoleSession session{CommandRegistry::WithPlugins(), out, err};
-  CommandResult Run(const std::string& line) {
-    const CommandResult r = session.Execute(line);
-    INFO(line << "\n" << err.str());
-    return r;
-  }
-};
+using Fixture = test::ConsoleFixture;
 
 }  // namespace
 

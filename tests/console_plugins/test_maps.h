@@ -13,10 +13,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
+
+#include <catch2/catch.hpp>
 #include <stdexcept>
 #include <string>
 
 #include "integration/process_util.h"
+#include "vilma/console/session.h"
 
 namespace vilma::test {
 
@@ -72,6 +75,19 @@ inline const ConsoleTestMaps& TestMaps() {
   }();
   return maps;
 }
+
+// A console session with every plugin's commands; Run() executes one command line and, on
+// failure, shows the line and the session's stderr in the test report.
+struct ConsoleFixture {
+  std::ostringstream out, err;
+  console::ConsoleSession session{console::CommandRegistry::WithPlugins(), out, err};
+  console::CommandResult Run(const std::string& line) {
+    const console::CommandResult r = session.Execute(line);
+    INFO(line << "\n" << err.str());
+    return r;
+  }
+  const mapstore::VIMap& map() { return *session.maps().Get(session.maps().selected()).map; }
+};
 
 // A fresh empty scratch folder for one test.
 inline std::string ConsoleScratch(const std::string& name) {
