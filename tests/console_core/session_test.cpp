@@ -222,3 +222,18 @@ TEST_CASE("completion: commands, flags, map keys, paths") {
 
 }  // namespace
 }  // namespace vilma::console
+
+namespace vilma::console {
+namespace {
+
+TEST_CASE("script variables: ${NAME} expands, $$ is $, undefined names are errors with the line") {
+  const std::map<std::string, std::string> vars{{"map", "/maps/a"}, {"out", "/maps/a kf"}};
+  CHECK(ExpandVariables("load ${map}\nsave --out='${out}' # $$5 $x", vars) ==
+        "load /maps/a\nsave --out='/maps/a kf' # $5 $x");
+  CHECK_THROWS_WITH(ExpandVariables("ms\nload ${mapp}", vars),
+                    Catch::Contains("line 2: ${mapp} is not defined"));
+  CHECK_THROWS_WITH(ExpandVariables("load ${map", vars), Catch::Contains("unterminated"));
+}
+
+}  // namespace
+}  // namespace vilma::console

@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <map>
 #include <iostream>
 #include <sstream>
 
@@ -67,7 +68,8 @@ std::string HistoryPath() {
 
 void PrintUsage(std::ostream& out) {
   out << "usage: vilma console [MAP_DIR...] [--script FILE | -c \"CMD; CMD\"] [--flagfile FILE]\n"
-         "                     [--history FILE | --no-history] [--progress-bar]\n"
+         "                     [--var NAME=VALUE ...] [--history FILE | --no-history]\n"
+         "                     [--progress-bar]\n"
          "\n"
          "The maplab-style console over VI-maps (docs/console.md). Each MAP_DIR is loaded first\n"
          "(`load`). Without --script or -c: an interactive prompt (line editing, history, tab\n"
@@ -78,6 +80,8 @@ void PrintUsage(std::ostream& out) {
          "                   with its wall time, stop at the first failing one\n"
          "  -c \"A; B\"        the same for commands on the command line\n"
          "  --flagfile FILE  --name=value lines: session defaults (as `set NAME VALUE`)\n"
+         "  --var NAME=VALUE ${NAME} in the script (or -c) becomes VALUE ($$ is a $), so that one\n"
+         "                   script serves many maps: --var map=maps/a --var out=maps/a-kf\n"
          "  --history FILE   history file (default $VILMA_CONSOLE_HISTORY or\n"
          "                   ~/.vilma_console_history, 1000 entries); --no-history: none\n"
          "  --progress-bar   draw progress bars in place even when stdout is not a terminal\n"
@@ -137,6 +141,7 @@ int RunConsoleCommand(const std::vector<std::string>& args, std::ostream& out,
   std::vector<std::string> map_folders;
   std::string script_file, inline_commands, flagfile;
   std::string history_path = HistoryPath();
+  std::map<std::string, std::string> variables;
   bool have_script = false, have_inline = false, progress_bar = false;
   for (std::size_t i = 0; i < args.size(); ++i) {
     const std::string& a = args[i];
@@ -160,6 +165,13 @@ int RunConsoleCommand(const std::vector<std::string>& args, std::ostream& out,
         flagfile = value("--flagfile");
       } else if (a == "--history" || a.rfind("--history=", 0) == 0) {
         history_path = value("--history");
+      } else if (a == "--var" || a.rfind("--var=", 0) == 0) {
+        const std::string v = value("--var");
+        const std::size_t eq = v.find('=');
+        if (eq == std::string::npos || eq == 0) {
+          throw std::invalid_argument("--var: expected NAME=VALUE, got '" + v + "'");
+        }
+        variables[v.substr(0, eq)] = v.substr(eq + 1);
       } else if (a == "--no-history") {
         history_path.clear();
       } else if (a == "--progress-bar") {
@@ -217,6 +229,12 @@ int RunConsoleCommand(const std::vector<std::string>& args, std::ostream& out,
     buffer << std::cin.rdbuf();
     text = buffer.str();
     source = "stdin";
+  }
+  try {
+    text = ExpandVariables(text, variables);
+  } catch (const CommandError& e) {
+    err << "vilma console: " << source << ": " << e.what() << "\n";
+    return 2;
   }
   const auto start = std::chrono::steady_clock::now();
   const ScriptResult result = session.RunScript(text, source);

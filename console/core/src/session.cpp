@@ -134,6 +134,43 @@ std::string ReadTextFile(const std::string& path, const char* what) {
 
 }  // namespace
 
+std::string ExpandVariables(const std::string& text,
+                            const std::map<std::string, std::string>& variables) {
+  std::string out;
+  int line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') ++line;
+    if (c != '$' || i + 1 >= text.size()) {
+      out += c;
+      continue;
+    }
+    if (text[i + 1] == '$') {
+      out += '$';
+      ++i;
+      continue;
+    }
+    if (text[i + 1] != '{') {
+      out += c;
+      continue;
+    }
+    const std::size_t close = text.find('}', i + 2);
+    const std::size_t newline = text.find('\n', i + 2);
+    if (close == std::string::npos || (newline != std::string::npos && newline < close)) {
+      throw CommandError("line " + std::to_string(line) + ": unterminated ${");
+    }
+    const std::string name = text.substr(i + 2, close - i - 2);
+    auto value = variables.find(name);
+    if (value == variables.end()) {
+      throw CommandError("line " + std::to_string(line) + ": ${" + name +
+                         "} is not defined (vilma console --var " + name + "=VALUE)");
+    }
+    out += value->second;
+    i = close;
+  }
+  return out;
+}
+
 std::vector<std::string> SimilarNames(const std::string& word,
                                       const std::vector<std::string>& candidates) {
   std::vector<std::string> similar;

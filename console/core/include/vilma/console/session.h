@@ -96,6 +96,10 @@ std::vector<std::string> SplitWords(const std::string& line);
 // Splits a script into commands at newlines and ';' (outside quotes), dropping '#' comments and
 // blank commands; each with its 1-based line number.
 std::vector<std::pair<int, std::string>> SplitScript(const std::string& text);
+// Replaces every ${NAME} in a script by its value (`vilma console --var NAME=VALUE`); "$$"
+// stands for "$". Throws CommandError naming the line for an undefined or unterminated name.
+std::string ExpandVariables(const std::string& text,
+                            const std::map<std::string, std::string>& variables);
 // The names in `candidates` closest to `word` (edit distance <= 2, or a common prefix).
 std::vector<std::string> SimilarNames(const std::string& word,
                                       const std::vector<std::string>& candidates);
