@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <iostream>
+#include <filesystem>
 #include <string>
 
 #include <vilma/status_t.hpp>
@@ -17,6 +18,7 @@
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/mapstore/stream/map_store_server.h"
+#include "vilma/mapstore/stream/mission_post_processor.h"
 
 #ifdef VILMA_HAVE_SYSTEMD
 #include <systemd/sd-daemon.h>
@@ -44,12 +46,24 @@ constexpr const char kUsage[] =
     "                         finalize_incomplete_at_shutdown: false\n"
     "                         max_reorder_chunks: 1024\n"
     "                         max_ack_batch: 256          # chunks per fsync + ack\n"
+    "                         post_process_script: \"\"     # console script run on every\n"
+    "                                                     # mission folder (docs/mapstore.md)\n"
+    "                         post_process_timeout_s: 3600\n"
+    "                         vilma_program: \"\"           # default: vilma beside this program\n"
     "  --help               this text\n";
 
 struct Config {
   vilma::mapstore::MapStoreServerOptions server;
   int max_ack_batch = 256;  // chunks handled between two fsync+ack rounds
+  vilma::mapstore::PostProcessOptions post_process;
 };
+
+// `vilma` beside this executable (the build tree and an installed prefix both have it there).
+std::string DefaultVilmaProgram() {
+  std::error_code error;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
+  return error ? std::string("vilma") : (self.parent_path() / "vilma").string();
+}
 
 Config LoadConfig(const std::string& path) {
   Config c;
@@ -58,8 +72,17 @@ Config LoadConfig(const std::string& path) {
   c.server.incomplete_timeout_s = yaml.GetOr<double>("incomplete_timeout_s", 0.0);
   c.server.finalize_incomplete_at_shutdown = yaml.GetOr<bool>("finalize_incomplete_at_shutdown", false);
   c.server.max_reorder_chunks = yaml.GetOr<int>("max_reorder_chunks", 1024);
+  c.post_process.vilma_program = DefaultVilmaProgram();
   c.max_ack_batch = yaml.GetOr<int>("max_ack_batch", 256);
+  c.post_process.script = yaml.GetOr<std::string>("post_process_script", "");
+  if (!c.post_process.script.empty() && c.post_process.script[0] != '/') {  // relative to the file
+    c.post_process.script =
+        (std::filesystem::path(path).parent_path() / c.post_process.script).string();
+  }
+  c.post_process.timeout_s = yaml.GetOr<double>("post_process_timeout_s", 3600.0);
+  c.post_process.vilma_program = yaml.GetOr<std::string>("vilma_program", DefaultVilmaProgram());
   yaml.CheckNoUnknownKeys();
+  yaml.CheckValid(c.post_process.Validate());
   if (c.max_ack_batch < 1) yaml.Fail("max_ack_batch", "an integer >= 1");
   if (c.server.incomplete_timeout_s < 0) yaml.Fail("incomplete_timeout_s", "a number >= 0");
   return c;
@@ -135,11 +158,14 @@ int main(int argc, char** argv) {
   ::sigaction(SIGINT, &sa, nullptr);
 
   std::unique_ptr<vilma::mapstore::MapStoreServer> server;
+  std::unique_ptr<vilma::mapstore::MissionPostProcessor> post;
   try {
     server = std::make_unique<vilma::mapstore::MapStoreServer>(
         config.server,
         [&](const vilma::mission_ack_t& ack) { lcm.publish(ack_channel, &ack); }, Log);
     server->Start();
+    post = std::make_unique<vilma::mapstore::MissionPostProcessor>(root, config.post_process, Log);
+    post->Scan();  // missions finished (or interrupted while processed) before this start
   } catch (const std::exception& e) {
     std::cerr << "vilma-mapstored: " << e.what() << "\n";
     return 1;
@@ -197,7 +223,11 @@ int main(int argc, char** argv) {
         {"disk_full_errors", c.disk_full_errors},
         {"io_errors", c.io_errors},
         {"finalize_errors", c.finalize_errors},
-        {"handler_errors", handler_errors}};
+        {"handler_errors", handler_errors},
+        {"post_process_queued", post->counters().queued},
+        {"post_process_running", post->counters().running},
+        {"post_process_succeeded", post->counters().succeeded},
+        {"post_process_failed", post->counters().failed}};
     for (const auto& kv : counters) {
       s.counter_names.push_back(kv.first);
       s.counter_values.push_back(static_cast<int64_t>(kv.second));
@@ -208,6 +238,7 @@ int main(int argc, char** argv) {
   };
 
   auto next_status = std::chrono::steady_clock::now();
+  uint64_t missions_finished = 0;
   while (!g_stop) {
     // Handle what is waiting (up to a batch), then one fsync per journal and one ack each.
     context.handled = 0;
@@ -222,6 +253,14 @@ int main(int argc, char** argv) {
       ++handler_errors;
       Log(std::string("error: ") + e.what());
     }
+    // A mission finished: queue it for post-processing (off the receiving path: a child).
+    const uint64_t finished =
+        server->counters().missions_completed + server->counters().missions_incomplete;
+    if (finished != missions_finished) {
+      missions_finished = finished;
+      post->Scan();
+    }
+    post->Poll();
     const auto now = std::chrono::steady_clock::now();
     if (now >= next_status) {
       const auto& c = server->counters();
@@ -235,6 +274,7 @@ int main(int argc, char** argv) {
     }
   }
   Log("stopping");
+  post->Stop();  // an interrupted job has no marker: it runs again at the next start
 #ifdef VILMA_HAVE_SYSTEMD
   sd_notify(0, "STOPPING=1");
 #endif
