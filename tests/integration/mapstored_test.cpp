@@ -158,3 +158,29 @@ TEST_CASE("vilma-mapstored rejects bad arguments and prints help", "[integration
   CHECK(bad_config.Wait(5.0) == 2);
   CHECK(ReadTextFile(dir + "/bad.log").find("unknown_key") != std::string::npos);
 }
+
+TEST_CASE("mapstored post-processes a finished mission with config/postprocess.vilma",
+          "[integration][mapstore_stream]") {
+  if (!HaveBinaries()) return;
+  const std::string dir = FreshDir("mapstored_post_process");
+  const std::string root = dir + "/maps";
+  const std::string url = UniqueLcmUrl(false);
+  const std::string config = std::string(VILMA_SOURCE_DIR) + "/config/mapstored.yaml";
+  ChildProcess store({kMapstored, "--root", root, "--lcm-url", url, "--config", config},
+                     dir + "/mapstored.log");
+  REQUIRE(WaitForOutput(dir + "/mapstored.log", "ready", 5.0));
+  ChildProcess sender({kSender, "--lcm-url", url, "--name", "processed_run", "--seed", "9",
+                       "--vertices", "30", "--keypoints", "40", "--rate", "200",
+                       "--end-timeout", "20"},
+                      dir + "/sender.log");
+  REQUIRE(sender.Wait(30.0) == 0);
+  REQUIRE(WaitForOutput(dir + "/mapstored.log", "post-processing processed_run: ok", 30.0));
+  const VIMap raw = LoadMap(root + "/processed_run");
+  const VIMap processed = LoadMap(root + "/processed_run.processed");
+  CHECK(processed.num_vertices() == raw.num_vertices());
+  CHECK(ReadTextFile(root + "/processed_run.processed.log").find("> check_map_consistency") !=
+        std::string::npos);
+  CHECK(ReadTextFile(root + "/processed_run.processed.done").rfind("exit 0", 0) == 0);
+  store.Signal(SIGTERM);
+  CHECK(store.Wait(10.0) == 0);
+}
