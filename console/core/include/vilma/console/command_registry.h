@@ -11,7 +11,7 @@
 //         .Group("keyframing")
 //         .Summary("keep keyframes by distance, rotation, every n-th vertex, shared landmarks")
 //         .Access(MapAccess::kModify)
-//         .Flag("kf_distance_threshold_m", &mapping::KeyframingOptions::distance_threshold_m,
+//         .Flag("kf_distance_threshold_m", &mapping::KeyframingOptions::kf_distance_threshold_m,
 //               "a vertex is kept when this far from the last keyframe [m]")
 //         .Run([](CommandContext& context, const mapping::KeyframingOptions& options) {
 //           const auto summary = mapping::KeyframeHeuristic(options, &context.map(),
@@ -163,12 +163,15 @@ class Command {
   }
 
   // A flag bound to a field: `--name=value` parses as the field's type (bool, int, int64,
-  // uint32, uint64, double, std::string) into it.
-  template <typename T>
-  Command& Flag(const std::string& name, T Options::*field, const std::string& help,
+  // uint32, uint64, double, std::string) into it. The field may belong to a base of Options
+  // (a command's options that extend an algorithm's options struct).
+  template <typename T, typename Base,
+            typename = std::enable_if_t<std::is_base_of_v<Base, Options>>>
+  Command& Flag(const std::string& name, T Base::*field, const std::string& help,
                 std::vector<std::string> aliases = {}) {
     return FlagAt(
-        name, [field](Options& o) -> T& { return o.*field; }, help, std::move(aliases));
+        name, [field](Options& o) -> T& { return static_cast<Base&>(o).*field; }, help,
+        std::move(aliases));
   }
   // A flag bound to a field reached through `access` (for nested options):
   //   .FlagAt("ba_num_iterations", [](Options& o) -> int& { return o.solver.max_iterations; }, ...)
@@ -190,7 +193,8 @@ class Command {
     return *this;
   }
   // A path flag (completed as a path in the interactive console).
-  Command& PathFlag(const std::string& name, std::string Options::*field, const std::string& help,
+  template <typename Base, typename = std::enable_if_t<std::is_base_of_v<Base, Options>>>
+  Command& PathFlag(const std::string& name, std::string Base::*field, const std::string& help,
                     std::vector<std::string> aliases = {}) {
     Flag(name, field, help, std::move(aliases));
     spec_.flags.back().type = FlagType::kPath;

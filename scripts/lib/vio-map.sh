@@ -1,0 +1,34 @@
+# Shared by the map benchmarks (bench-kfh.sh, bench-optvi.sh): a simulated set's LCM log and the
+# VI-map vilma-estimatord builds from it (`--input-log --save-map`, the VIO's poses, no ground
+# truth used), both cached in $work and remade when older than their inputs.
+# Needs: bin (build/bin), datasets, work. Source it; it defines functions only.
+
+# stale OUTPUT INPUT...: true when OUTPUT is missing or older than one of the INPUTs.
+stale() {
+  local out=$1
+  shift
+  [ -e "$out" ] || return 0
+  local f
+  for f in "$@"; do [ "$f" -nt "$out" ] && return 0; done
+  return 1
+}
+
+# vio_map SET: prints the folder of SET's daemon-built VI-map ($work/SET-map; the daemon's
+# output in $work/SET-map.out, its poses in $work/SET-map.lcm).
+vio_map() {
+  local set=$1 log=$work/$1.lcmlog map=$work/$1-map
+  if stale "$log" "$datasets/$set/sim.yaml"; then
+    "$bin/vilma-replay" "$datasets/$set" --to-log "$log" --quiet >&2
+  fi
+  if stale "$map.out" "$log" "$bin/vilma-estimatord" || [ -z "$(ls -A "$map" 2> /dev/null)" ]; then
+    rm -rf "$map" "$map.out" "$map.lcm"  # --save-map wants an absent or empty folder
+    "$bin/vilma-estimatord" --rig "$datasets/$set/rig.yaml" --input-log "$log" \
+      --lcm-url "file://$map.lcm?mode=w" --save-map "$map" > "$map.out.tmp" 2>&1 ||
+      { cat "$map.out.tmp" >&2; echo "vio_map: vilma-estimatord failed ($set)" >&2; return 1; }
+    mv "$map.out.tmp" "$map.out"
+  fi
+  echo "$map"
+}
+
+# ate_rmse EVAL_OUTPUT: the ATE translation RMSE [m] of a `vilma eval` output.
+ate_rmse() { awk '/^ATE translation/ { print $5 }' "$1"; }
