@@ -101,8 +101,7 @@ LandmarkQualitySummary EvaluateLandmarkQualities(const LandmarkQualityOptions& o
   const std::vector<LandmarkId> ids = LandmarksOf(*map, missions);
   LandmarkQualitySummary s;
   s.command = "elq";
-  s.landmarks = ids.size();
-  // Verdicts first, written after: a cancel leaves every quality as it was.
+  // Verdicts first, written after the last safe point: a cancel leaves every quality as it was.
   std::vector<LandmarkVerdict> verdicts(ids.size());
   BeginProgress(progress, "elq", ids.size());
   for (std::size_t i = 0; i < ids.size(); ++i) {
@@ -111,17 +110,23 @@ LandmarkQualitySummary EvaluateLandmarkQualities(const LandmarkQualityOptions& o
     verdicts[i] = EvaluateLandmarkQuality(rays, judged, options);
     if (i % 4096 == 4095) ReportProgress(progress, i + 1);
   }
-  for (std::size_t i = 0; i < ids.size(); ++i) {
-    mapstore::Landmark& l = map->landmark(ids[i]);
-    Count(l.quality, &s.good_before, &s.bad_before, &s.unknown_before);
-    l.quality = verdicts[i] == LandmarkVerdict::kGood ? LandmarkQuality::kGood
-                                                      : LandmarkQuality::kBad;
-    Count(l.quality, &s.good_after, &s.bad_after, &s.unknown_after);
-    ++s.verdicts[static_cast<int>(verdicts[i])];
-  }
   ReportProgress(progress, ids.size());
+  ApplyVerdicts(ids, verdicts, map, &s);
   s.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return s;
+}
+
+void ApplyVerdicts(const std::vector<LandmarkId>& ids, const std::vector<LandmarkVerdict>& verdicts,
+                   VIMap* map, LandmarkQualitySummary* s) {
+  s->landmarks += ids.size();
+  for (std::size_t i = 0; i < ids.size(); ++i) {
+    mapstore::Landmark& l = map->landmark(ids[i]);
+    Count(l.quality, &s->good_before, &s->bad_before, &s->unknown_before);
+    l.quality = verdicts[i] == LandmarkVerdict::kGood ? LandmarkQuality::kGood
+                                                      : LandmarkQuality::kBad;
+    Count(l.quality, &s->good_after, &s->bad_after, &s->unknown_after);
+    ++s->verdicts[static_cast<int>(verdicts[i])];
+  }
 }
 
 std::size_t ResetLandmarkQuality(VIMap* map, const std::vector<MissionId>& missions) {

@@ -76,9 +76,13 @@ RetriangulationSummary RetriangulateLandmarks(const RetriangulationOptions& opti
   if (!problem.empty()) throw std::invalid_argument("rtl options: " + problem);
   const std::vector<LandmarkId> ids = LandmarksOf(*map, missions);
   std::vector<TriangulationResult> results(ids.size());
+  std::vector<LandmarkVerdict> verdicts(ids.size());
   BeginProgress(progress, "rtl", ids.size());
   for (std::size_t i = 0; i < ids.size(); ++i) {
-    results[i] = Triangulate(ObservationsInG(*map, ids[i]), options.triangulation);
+    const std::vector<TriangulationObservation> rays = ObservationsInG(*map, ids[i]);
+    results[i] = Triangulate(rays, options.triangulation);
+    // A landmark that cannot be triangulated is bad whatever its old position looks like.
+    verdicts[i] = EvaluateLandmarkQuality(rays, results[i], options.quality);
     if (i % 1024 == 1023) ReportProgress(progress, i + 1);
   }
   ReportProgress(progress, ids.size());
@@ -89,7 +93,6 @@ RetriangulationSummary RetriangulateLandmarks(const RetriangulationOptions& opti
   std::vector<double> shifts;
   for (std::size_t i = 0; i < ids.size(); ++i) {
     if (!results[i].ok()) {
-      map->landmark(ids[i]).quality = LandmarkQuality::kBad;
       ++s.failed;
       continue;
     }
@@ -102,23 +105,16 @@ RetriangulationSummary RetriangulateLandmarks(const RetriangulationOptions& opti
     s.median_shift_m = shifts[shifts.size() / 2];
     s.max_shift_m = shifts.back();
   }
+  s.quality.command = "rtl";
   if (options.evaluate_quality) {
-    // The failed ones stay bad: the rules see them at their old position, which the
-    // observations do not support; mark them after the pass.
-    s.quality = EvaluateLandmarkQualities(options.quality, map, missions, nullptr);
-    s.quality.command = "rtl";
+    ApplyVerdicts(ids, verdicts, map, &s.quality);
+  } else {
     for (std::size_t i = 0; i < ids.size(); ++i) {
-      mapstore::Landmark& l = map->landmark(ids[i]);
-      if (!results[i].ok() && l.quality == LandmarkQuality::kGood) {
-        l.quality = LandmarkQuality::kBad;
-        --s.quality.good_after;
-        ++s.quality.bad_after;
-        --s.quality.verdicts[static_cast<int>(LandmarkVerdict::kGood)];
-        ++s.quality.verdicts[static_cast<int>(LandmarkVerdict::kTriangulationFailed)];
-      }
+      if (!results[i].ok()) map->landmark(ids[i]).quality = LandmarkQuality::kBad;
     }
   }
   s.seconds = SecondsSince(start);
+  s.quality.seconds = s.seconds;
   return s;
 }
 

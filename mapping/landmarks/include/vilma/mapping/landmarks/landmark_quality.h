@@ -56,6 +56,12 @@ LandmarkQualitySummary EvaluateLandmarkQualities(const LandmarkQualityOptions& o
                                                  const std::vector<mapstore::MissionId>& missions,
                                                  ProgressObserver* progress = nullptr);
 
+// Sets the quality of landmark ids[i] from verdicts[i] (good or bad) and counts into `summary`
+// (landmarks, verdicts, good/bad/unknown before and after).
+void ApplyVerdicts(const std::vector<mapstore::LandmarkId>& ids,
+                   const std::vector<LandmarkVerdict>& verdicts, mapstore::VIMap* map,
+                   LandmarkQualitySummary* summary);
+
 // Sets every landmark of the missions to unknown quality; returns how many there are.
 std::size_t ResetLandmarkQuality(mapstore::VIMap* map,
                                  const std::vector<mapstore::MissionId>& missions);
