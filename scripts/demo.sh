@@ -88,6 +88,12 @@ cat > "$loc/process.vilma" <<SCRIPT
 load $loc/map --map_key=room
 map_stats
 check_map_consistency
+print_baseframes
+# Landmark quality from scratch, positions from all observations, landmarks for free tracks.
+reset_landmark_quality
+evaluate_landmark_quality
+retriangulate_landmarks
+initialize_track_landmarks
 export_trajectory_to_csv --out=$loc/console/room-vio.txt --format=tum --frame=M
 csv_export --out=$loc/console/csv
 export_landmarks_ply --out=$loc/console/landmarks.ply --color_by=quality
@@ -96,6 +102,16 @@ export_ncamera_calibration --out=$loc/console/rig
 plot_map --out=$loc/console/map.png --title="demo room"
 export_html --out=$loc/console/map.html --title="demo room"
 save --out=$loc/map-processed
+# A keyframed copy (maplab's keyframe heuristic), bad landmarks removed: 5-10x smaller on disk.
+copy_map room-keyframed
+select room-keyframed
+keyframe_heuristic
+evaluate_landmark_quality --elq_min_observers=2
+remove_bad_landmarks
+map_stats
+check_map_consistency
+save --out=$loc/map-keyframed
+list
 SCRIPT
 "$bin/vilma" console --script "$loc/process.vilma"
 ls "$loc/console"
