@@ -107,15 +107,9 @@ print(median(inliers), median(matches))
 PY
 }
 
-# stale OUTPUT INPUT...: true when OUTPUT is missing or older than one of the INPUTs.
-stale() {
-  local out=$1
-  shift
-  [ -e "$out" ] || return 0
-  local f
-  for f in "$@"; do [ "$f" -nt "$out" ] && return 0; done
-  return 1
-}
+# stale OUTPUT INPUT... (and vio_map, ate_rmse), shared with the map benchmarks.
+# shellcheck source=lib/vio-map.sh
+. "$repo_dir/scripts/lib/vio-map.sh"
 
 # make_log SET: the set's LCM log (vilma-replay --to-log), made when missing or stale.
 make_log() {

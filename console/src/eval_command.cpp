@@ -15,6 +15,7 @@
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "vilma/core/json.h"
 
 extern char** environ;
 
@@ -79,39 +80,6 @@ std::string FormatDistance(double d) {
   if (std::strtod(buf, nullptr) == d) return buf;
   std::snprintf(buf, sizeof(buf), "%.6g", d);
   return buf;
-}
-
-// JSON string literal with the escapes RFC 8259 requires.
-std::string JsonString(const std::string& s) {
-  std::string out = "\"";
-  for (unsigned char c : s) {
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      case '\r':
-        out += "\\r";
-        break;
-      default:
-        if (c < 0x20) {
-          char buf[8];
-          std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-          out += buf;
-        } else {
-          out += static_cast<char>(c);
-        }
-    }
-  }
-  return out + "\"";
 }
 
 // JSON number: 10 significant digits; non-finite values (never produced, but never invalid

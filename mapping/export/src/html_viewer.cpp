@@ -26,6 +26,7 @@
 #include "html_viewer_page.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
+#include "vilma/core/json.h"
 #include "vilma/mapping/export/map_plot.h"
 
 namespace vilma::mapping {
@@ -35,37 +36,8 @@ using mapstore::MissionId;
 using mapstore::VertexId;
 using mapstore::VIMap;
 
-// JSON string literal; '<', '>' and '&' as \u escapes so that the text can sit inside a
-// <script> element, control characters escaped, other bytes (UTF-8) as they are.
-std::string JsonString(const std::string& s) {
-  std::string out = "\"";
-  for (const char c : s) {
-    const auto u = static_cast<unsigned char>(c);
-    switch (c) {
-      case '"':
-        out += "\\\"";
-        break;
-      case '\\':
-        out += "\\\\";
-        break;
-      case '\n':
-        out += "\\n";
-        break;
-      case '\t':
-        out += "\\t";
-        break;
-      default:
-        if (u < 0x20 || c == '<' || c == '>' || c == '&') {
-          char buffer[8];
-          std::snprintf(buffer, sizeof(buffer), "\\u%04x", u);
-          out += buffer;
-        } else {
-          out += c;
-        }
-    }
-  }
-  return out + "\"";
-}
+// JSON string literal that can sit inside a <script> element.
+std::string JsonString(const std::string& s) { return vilma::JsonString(s, true); }
 
 std::string HtmlEscape(const std::string& s) {
   std::string out;
