@@ -68,30 +68,7 @@ std::map<std::string, std::string> FolderContents(const fs::path& root) {
   return files;
 }
 
-// Distance from p to the parallelogram q (closest point inside, else on an edge).
-double DistanceToQuad(const sim::Quad& q, const Eigen::Vector3d& p) {
-  const Eigen::Vector3d& u = q.edge_u_W;
-  const Eigen::Vector3d& v = q.edge_v_W;
-  const Eigen::Vector3d d = p - q.origin_W;
-  Eigen::Matrix2d G;
-  G << u.dot(u), u.dot(v), u.dot(v), v.dot(v);
-  const Eigen::Vector2d st = G.inverse() * Eigen::Vector2d(u.dot(d), v.dot(d));
-  if (st.x() >= 0 && st.x() <= 1 && st.y() >= 0 && st.y() <= 1) {
-    return (d - st.x() * u - st.y() * v).norm();
-  }
-  auto segment = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& e) {
-    const double t = std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0);
-    return (p - a - t * e).norm();
-  };
-  const Eigen::Vector3d& o = q.origin_W;
-  return std::min({segment(o, u), segment(o, v), segment(o + u, v), segment(o + v, u)});
-}
-
-double DistanceToWorld(const sim::World& world, const Eigen::Vector3d& p_W) {
-  double best = std::numeric_limits<double>::infinity();
-  for (const sim::Quad& q : world.quads) best = std::min(best, DistanceToQuad(q, p_W));
-  return best;
-}
+using sim::DistanceToWorld;
 
 double Median(std::vector<double> v) {
   REQUIRE(!v.empty());

@@ -74,3 +74,16 @@ TEST_CASE("world YAML loads and rejects unknown keys", "[sim][world]") {
   CHECK_THROWS_AS(vilma::sim::LoadWorldYaml(path, 1), vilma::InputError);
   std::remove(path.c_str());
 }
+
+TEST_CASE("DistanceToQuad: inside, beside an edge, beyond a corner; DistanceToWorld the nearest") {
+  vilma::sim::Quad q;  // the unit square in z = 0
+  CHECK(vilma::sim::DistanceToQuad(q, Eigen::Vector3d(0.5, 0.5, 0.3)) == Approx(0.3));
+  CHECK(vilma::sim::DistanceToQuad(q, Eigen::Vector3d(1.4, 0.5, 0.3)) == Approx(0.5));
+  CHECK(vilma::sim::DistanceToQuad(q, Eigen::Vector3d(-0.3, -0.4, 0.0)) == Approx(0.5));
+  vilma::sim::World world;
+  world.quads.push_back(q);
+  vilma::sim::Quad far = q;
+  far.origin_W = Eigen::Vector3d(0, 0, 2);
+  world.quads.push_back(far);
+  CHECK(vilma::sim::DistanceToWorld(world, Eigen::Vector3d(0.5, 0.5, 1.5)) == Approx(0.5));
+}

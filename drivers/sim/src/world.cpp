@@ -377,5 +377,31 @@ World LoadWorldYaml(const std::string& path, uint64_t seed) {
   return w;
 }
 
+double DistanceToQuad(const Quad& quad, const Vector3d& p_W) {
+  const Vector3d& u = quad.edge_u_W;
+  const Vector3d& v = quad.edge_v_W;
+  const Vector3d d = p_W - quad.origin_W;
+  // Closest point of the plane: d = s u + t v + n, with the Gram matrix of (u, v).
+  Eigen::Matrix2d gram;
+  gram << u.dot(u), u.dot(v), u.dot(v), v.dot(v);
+  const Eigen::Vector2d st = gram.inverse() * Eigen::Vector2d(u.dot(d), v.dot(d));
+  if (st.x() >= 0 && st.x() <= 1 && st.y() >= 0 && st.y() <= 1) {
+    return (d - st.x() * u - st.y() * v).norm();
+  }
+  // Outside: the nearest of the four edges.
+  auto segment = [&p_W](const Vector3d& a, const Vector3d& e) {
+    const double t = std::clamp((p_W - a).dot(e) / e.squaredNorm(), 0.0, 1.0);
+    return (p_W - a - t * e).norm();
+  };
+  const Vector3d& o = quad.origin_W;
+  return std::min({segment(o, u), segment(o, v), segment(o + u, v), segment(o + v, u)});
+}
+
+double DistanceToWorld(const World& world, const Vector3d& p_W) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const Quad& q : world.quads) best = std::min(best, DistanceToQuad(q, p_W));
+  return best;
+}
+
 }  // namespace sim
 }  // namespace vilma

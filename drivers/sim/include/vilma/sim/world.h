@@ -84,6 +84,12 @@ class World {
   std::vector<MipTexture> textures_;
 };
 
+// Distance [m] from p_W to the parallelogram (the closest point inside it, else on an edge).
+double DistanceToQuad(const Quad& quad, const Eigen::Vector3d& p_W);
+// Distance [m] from p_W to the nearest quad of the world (the true surfaces, for judging
+// landmark positions).
+double DistanceToWorld(const World& world, const Eigen::Vector3d& p_W);
+
 // Names of the presets: room, room-fast, hall, street.
 std::vector<std::string> PresetNames();
 bool IsPresetName(const std::string& name);
