@@ -1,6 +1,10 @@
 #include "vilma/mapping/optimization/pose_manifold.h"
 
+#include "vilma/core/trajectory_eval.h"
+
 #include <Eigen/Core>
+
+#include <cmath>
 
 namespace vilma::mapping {
 
@@ -35,6 +39,79 @@ bool PoseManifold::MinusJacobian(const double* /*x*/, double* jacobian) const {
   Eigen::Map<Eigen::Matrix<double, 6, 7, Eigen::RowMajor>> J(jacobian);
   J.setZero();
   J.leftCols<6>().setIdentity();
+  return true;
+}
+
+Eigen::Matrix<double, 6, Eigen::Dynamic> GaugePoseManifold::Basis(const double* x) const {
+  Eigen::Matrix<double, 6, Eigen::Dynamic> B =
+      Eigen::Matrix<double, 6, Eigen::Dynamic>::Zero(6, TangentSize());
+  int column = 0;
+  if (!fix_position_ && fixed_direction_.isZero()) {
+    B.block<3, 3>(0, 0).setIdentity();
+    column = 3;
+  } else if (!fix_position_) {
+    const Eigen::Vector3d d = fixed_direction_.normalized();
+    const Eigen::Vector3d seed =
+        std::abs(d.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+    const Eigen::Vector3d e1 = d.cross(seed).normalized();
+    B.block<3, 1>(0, 0) = e1;
+    B.block<3, 1>(0, 1) = d.cross(e1);
+    column = 2;
+  }
+  if (!fix_yaw_) {
+    B.block<3, 3>(3, column).setIdentity();
+    return B;
+  }
+  // Body-frame directions orthogonal to the world's up axis seen from the body.
+  const Eigen::Quaterniond q = Eigen::Map<const Eigen::Quaterniond>(x + 3).normalized();
+  const Eigen::Vector3d up_B = q.conjugate() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d seed =
+      std::abs(up_B.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d e1 = up_B.cross(seed).normalized();
+  const Eigen::Vector3d e2 = up_B.cross(e1);
+  B.block<3, 1>(3, column) = e1;
+  B.block<3, 1>(3, column + 1) = e2;
+  return B;
+}
+
+bool GaugePoseManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
+  const Eigen::Map<const Eigen::VectorXd> d(delta, TangentSize());
+  const Eigen::Matrix<double, 6, 1> full = Basis(x) * d;
+  PoseManifold().Plus(x, full.data(), x_plus_delta);
+  if (fix_yaw_) {
+    // The basis holds the yaw to first order; put it back exactly: R = Rz(yaw) S (swing S
+    // about a horizontal axis), so Rz(α) R has yaw + α.
+    Eigen::Map<Eigen::Quaterniond> q(x_plus_delta + 3);
+    const double correction = GravityYaw(Eigen::Map<const Eigen::Quaterniond>(x + 3)) -
+                              GravityYaw(q);
+    q = (Eigen::Quaterniond(Eigen::AngleAxisd(correction, Eigen::Vector3d::UnitZ())) * q)
+            .normalized();
+  }
+  return true;
+}
+
+bool GaugePoseManifold::PlusJacobian(const double* x, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(
+      jacobian, 7, TangentSize());
+  J.setZero();
+  J.topRows<6>() = Basis(x);
+  return true;
+}
+
+bool GaugePoseManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  Eigen::Matrix<double, 6, 1> full;
+  PoseManifold().Minus(y, x, full.data());
+  // Least-squares coordinates in the (orthonormal) basis.
+  Eigen::Map<Eigen::VectorXd> out(y_minus_x, TangentSize());
+  out = Basis(x).transpose() * full;
+  return true;
+}
+
+bool GaugePoseManifold::MinusJacobian(const double* x, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(
+      jacobian, TangentSize(), 7);
+  J.setZero();
+  J.leftCols<6>() = Basis(x).transpose();
   return true;
 }
 

@@ -27,6 +27,36 @@ class PoseManifold : public ceres::Manifold {
   bool MinusJacobian(const double* x, double* jacobian) const override;
 };
 
+// A pose with part of its tangent held: the gauge of the problem (docs/optimization.md
+// "Gauge"). fix_position drops δp; fix_yaw drops the rotation about the frame's z axis (gravity,
+// up): the body-frame perturbation is restricted to the plane orthogonal to R_A_Bᵀ e_z, so the
+// yaw of R_A_B does not change to first order (roll and pitch stay free). Its PlusJacobian lifts
+// the reduced tangent into the first six columns, as PoseManifold's.
+// With a non-zero fixed_direction (unit, frame A) and a free position, the position moves only
+// orthogonally to that direction: the visual-only scale gauge (the distance to a held vertex
+// along that direction is kept to first order).
+class GaugePoseManifold : public ceres::Manifold {
+ public:
+  GaugePoseManifold(bool fix_position, bool fix_yaw,
+                    const Eigen::Vector3d& fixed_direction = Eigen::Vector3d::Zero())
+      : fix_position_(fix_position), fix_yaw_(fix_yaw), fixed_direction_(fixed_direction) {}
+  int AmbientSize() const override { return 7; }
+  int TangentSize() const override {
+    const int position = fix_position_ ? 0 : fixed_direction_.isZero() ? 3 : 2;
+    return position + (fix_yaw_ ? 2 : 3);
+  }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+
+ private:
+  // The 6 x TangentSize() matrix from the reduced tangent to [δp, δθ] at x.
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Basis(const double* x) const;
+  bool fix_position_, fix_yaw_;
+  Eigen::Vector3d fixed_direction_;
+};
+
 // Pose block <-> Transformation.
 void PoseToBlock(const Transformation& T, double* block);
 Transformation BlockToPose(const double* block);

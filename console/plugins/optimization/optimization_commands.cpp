@@ -1,0 +1,79 @@
+// optimize_visual_inertial / optvi and optimize_visual / optv (mapping/optimization,
+// docs/optimization.md).
+#include <sstream>
+
+#include "vilma/console/command_registry.h"
+#include "vilma/mapping/inspection/map_statistics.h"
+#include "vilma/mapping/optimization/vi_optimization.h"
+
+namespace vilma::console {
+namespace {
+
+struct OptOptions : mapping::ViOptimizationOptions {
+  std::string map_mission;  // "" = every mission
+};
+
+template <typename O>
+Command<O> OptimizationFlags(Command<O> c) {
+  return std::move(
+      c.Flag("ba_num_iterations", &O::ba_num_iterations, "solver iterations in all")
+          .Flag("ba_iterations_per_round", &O::ba_iterations_per_round,
+                "iterations between re-integration / outlier rejection / progress")
+          .Flag("ba_robust_loss", &O::ba_robust_loss, "huber, cauchy or none")
+          .Flag("ba_robust_loss_scale_px", &O::ba_robust_loss_scale_px,
+                "where the robust loss starts [px]")
+          .Flag("keypoint_sigma_px", &O::keypoint_sigma_px, "keypoint noise [px]")
+          .Flag("ba_fix_landmarks", &O::ba_fix_landmarks, "hold the landmark positions")
+          .Flag("ba_fix_biases", &O::ba_fix_biases, "hold the IMU biases")
+          .Flag("ba_fix_extrinsics", &O::ba_fix_extrinsics, "hold the camera extrinsics T_I_C")
+          .Flag("ba_outlier_rejection", &O::ba_outlier_rejection,
+                "drop observations behind the camera or beyond the threshold between rounds")
+          .Flag("ba_outlier_threshold_px", &O::ba_outlier_threshold_px,
+                "outlier threshold on the reprojection error [px]")
+          .Flag("ba_num_threads", &O::ba_num_threads, "solver threads")
+          .Flag("ba_linear_solver", &O::ba_linear_solver,
+                "sparse_schur, iterative_schur, sparse_normal_cholesky or dense_schur")
+          .Flag("evaluate_quality", &O::evaluate_quality, "elq after the optimization")
+          .Flag("map_mission", &O::map_mission,
+                "mission ids, unique prefixes or names, comma separated (default: all)",
+                {"mission"}));
+}
+
+void Run(CommandContext& c, const OptOptions& o) {
+  std::vector<mapstore::MissionId> missions;
+  std::stringstream words(o.map_mission);
+  std::string word;
+  while (std::getline(words, word, ',')) {
+    if (!word.empty()) missions.push_back(mapping::ResolveMission(c.map(), word));
+  }
+  try {
+    c.out() << mapping::OptimizeViMap(o, &c.map(), missions, c.progress()).FullReport();
+  } catch (const std::invalid_argument& e) {
+    throw CommandError(e.what());
+  }
+}
+
+void Register(CommandRegistry* registry) {
+  registry->Add(OptimizationFlags(Command<OptOptions>("optimize_visual_inertial")
+                                      .Alias("optvi")
+                                      .Group("optimization")
+                                      .Summary("visual-inertial bundle adjustment of the map "
+                                               "(reprojection + IMU preintegration, Ceres)")
+                                      .Access(MapAccess::kModify))
+                    .Run(Run));
+  struct VisualOnly : OptOptions {
+    VisualOnly() { inertial = false; }
+  };
+  registry->Add(OptimizationFlags(Command<VisualOnly>("optimize_visual")
+                                      .Alias("optv")
+                                      .Group("optimization")
+                                      .Summary("visual-only bundle adjustment of the map "
+                                               "(reprojection terms, Ceres)")
+                                      .Access(MapAccess::kModify))
+                    .Run([](CommandContext& c, const VisualOnly& o) { Run(c, o); }));
+}
+
+}  // namespace
+}  // namespace vilma::console
+
+VILMA_CONSOLE_COMMANDS(vilma::console::Register)

@@ -1,0 +1,91 @@
+// Visual-inertial batch optimization of a VI-map (maplab's VIWLS: optimize_visual_inertial /
+// optvi, and visual only: optimize_visual / optv; docs/optimization.md).
+//
+// Problem: the reprojection residual (reprojection_residual.h) of every observation of every
+// good landmark stored in the selected missions (observers of other missions enter with their
+// poses held), robust loss in pixels; with `inertial`, the inertial residual
+// (inertial_residual.h) of every IMU edge between consecutive vertices, from its raw samples.
+// Unknowns: vertex poses T_M_I, velocities and biases (inertial), landmark positions p_G;
+// baseframes T_G_M and camera extrinsics T_I_C are held (extrinsics freed by an option).
+//
+// Gauge (docs/optimization.md "Gauge"): the missions are grouped into clusters that share
+// landmarks; in each cluster one mission anchors it (the first with a known baseframe, else the
+// first): with inertial terms the position and the yaw of its first vertex are held (the four
+// directions VI cannot observe; gravity fixes roll and pitch), visual only its first vertex's
+// pose and the distance to the vertex farthest from it (the scale: 7 directions).
+//
+// Solve in rounds of ba_iterations_per_round Levenberg-Marquardt iterations (Ceres,
+// SPARSE_SCHUR with landmarks eliminated by default); between rounds: IMU edges whose bias moved
+// far are re-integrated (imu_preintegration.h), observations behind their camera or beyond
+// ba_outlier_threshold_px are dropped (outlier rejection, maplab's default), progress is
+// reported (a safe point: Ctrl-C cancels there). Only after the last round is the map written:
+// a failure or a cancel leaves it untouched. Then landmarks are re-evaluated (elq rules).
+#pragma once
+
+#include <cstddef>
+#include <string>
+#include <vector>
+
+#include "vilma/core/progress.h"
+#include "vilma/mapping/map_builder_options.h"
+#include "vilma/mapping/optimization/imu_preintegration.h"
+#include "vilma/mapstore/vi_map.h"
+
+namespace vilma::mapping {
+
+struct ViOptimizationOptions {
+  bool visual = true;    // reprojection terms
+  bool inertial = true;  // IMU terms (false: optv)
+  int ba_num_iterations = 30;       // solver iterations in all rounds together
+  int ba_iterations_per_round = 3;  // then re-integration, outlier rejection, progress
+  std::string ba_robust_loss = "huber";  // huber, cauchy or none
+  double ba_robust_loss_scale_px = 3.0;  // where the loss turns robust [px]
+  double keypoint_sigma_px = 1.0;        // keypoint noise: whitens the reprojection [px]
+  bool ba_fix_landmarks = false;
+  bool ba_fix_biases = false;      // biases held (velocities stay free)
+  bool ba_fix_extrinsics = true;   // camera extrinsics T_I_C held
+  bool ba_outlier_rejection = true;
+  double ba_outlier_threshold_px = 10.0;  // drop observations with a larger error [px]
+  int ba_num_threads = 2;
+  // sparse_schur (landmarks eliminated, SuiteSparse), iterative_schur (SCHUR_JACOBI, for maps
+  // whose reduced camera matrix does not fit), sparse_normal_cholesky, dense_schur (tiny maps).
+  std::string ba_linear_solver = "sparse_schur";
+  PreintegrationOptions preintegration;
+  bool evaluate_quality = true;      // elq after the optimization
+  LandmarkQualityOptions quality;
+  std::string Validate() const;
+};
+
+struct MissionChange {
+  mapstore::MissionId mission;
+  std::size_t vertices = 0;
+  double mean_shift_m = 0.0, max_shift_m = 0.0;    // vertex positions in G
+  double mean_rotation_deg = 0.0, max_rotation_deg = 0.0;
+};
+
+struct ViOptimizationSummary {
+  std::string command;  // "optvi" or "optv"
+  std::size_t vertices = 0, landmarks = 0;
+  std::size_t reprojection_residuals = 0, inertial_residuals = 0;
+  std::size_t clusters = 0;
+  double initial_cost = 0.0, final_cost = 0.0;
+  int iterations = 0, rounds = 0;
+  double solve_seconds = 0.0, total_seconds = 0.0;
+  double reprojection_rmse_before_px = 0.0, reprojection_rmse_after_px = 0.0;
+  std::size_t outlier_observations = 0;
+  std::size_t reintegrations = 0;
+  std::string termination;  // Ceres' last termination type and message
+  std::vector<MissionChange> missions;
+  std::size_t good_landmarks_before = 0, good_landmarks_after = 0;
+  std::string BriefReport() const;
+  std::string FullReport() const;
+};
+
+// Optimizes the selected missions (empty: all). Throws std::invalid_argument (map unchanged) for
+// invalid options, an empty problem, a selected mission without IMU edges (inertial), or a
+// non-finite state; Cancelled (map unchanged) when the progress observer asks to stop.
+ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, mapstore::VIMap* map,
+                                    const std::vector<mapstore::MissionId>& missions = {},
+                                    ProgressObserver* progress = nullptr);
+
+}  // namespace vilma::mapping

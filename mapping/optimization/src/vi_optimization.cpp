@@ -1,0 +1,596 @@
+#include "vilma/mapping/optimization/vi_optimization.h"
+
+#include <ceres/ceres.h>
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "vilma/mapping/landmarks/landmark_quality.h"
+#include "vilma/mapping/optimization/inertial_residual.h"
+#include "vilma/mapping/optimization/pose_manifold.h"
+#include "vilma/mapping/optimization/reprojection_residual.h"
+
+namespace vilma::mapping {
+
+using mapstore::EdgeType;
+using mapstore::IdHash;
+using mapstore::LandmarkId;
+using mapstore::LandmarkObservation;
+using mapstore::MissionId;
+using mapstore::VertexId;
+using mapstore::VIMap;
+
+std::string ViOptimizationOptions::Validate() const {
+  if (!visual && !inertial) return "visual, inertial: expected at least one kind of term";
+  if (ba_num_iterations < 1) return "ba_num_iterations: expected >= 1";
+  if (ba_iterations_per_round < 1) return "ba_iterations_per_round: expected >= 1";
+  if (ba_robust_loss != "huber" && ba_robust_loss != "cauchy" && ba_robust_loss != "none") {
+    return "ba_robust_loss: expected huber, cauchy or none";
+  }
+  if (!(ba_robust_loss_scale_px > 0)) return "ba_robust_loss_scale_px: expected > 0";
+  if (!(keypoint_sigma_px > 0)) return "keypoint_sigma_px: expected > 0";
+  if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
+  if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
+  if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&
+      ba_linear_solver != "sparse_normal_cholesky" && ba_linear_solver != "dense_schur") {
+    return "ba_linear_solver: expected sparse_schur, iterative_schur, sparse_normal_cholesky or "
+           "dense_schur";
+  }
+  std::string problem = preintegration.Validate();
+  if (!problem.empty()) return "preintegration." + problem;
+  problem = quality.Validate();
+  return problem.empty() ? "" : "quality." + problem;
+}
+
+namespace {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// One reprojection term, for outlier rejection and the error figures.
+struct Observation {
+  LandmarkId landmark;
+  LandmarkObservation observation;
+  const Camera* camera;
+  Eigen::Vector2d uv;
+  double* pose_M_I;
+  double* p_G;
+  double* pose_G_M;
+  double* pose_I_C;
+  ceres::ResidualBlockId residual = nullptr;
+};
+
+// Pixel error of an observation at the current blocks; negative when behind the camera.
+double PixelError(const Observation& o) {
+  const Transformation T_G_C =
+      BlockToPose(o.pose_G_M) * BlockToPose(o.pose_M_I) * BlockToPose(o.pose_I_C);
+  const Eigen::Vector3d p_C = T_G_C.inverse() * Eigen::Map<const Eigen::Vector3d>(o.p_G);
+  Eigen::Vector2d uv;
+  const Camera::ProjectionResult r = o.camera->Project(p_C, &uv);
+  if (r == Camera::ProjectionResult::kBehindCamera || r == Camera::ProjectionResult::kNotFinite ||
+      !uv.allFinite()) {
+    return -1.0;
+  }
+  return (uv - o.uv).norm();
+}
+
+double RmsePx(const std::vector<Observation>& observations) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const Observation& o : observations) {
+    if (o.residual == nullptr) continue;
+    const double e = PixelError(o);
+    if (e < 0) continue;
+    sum += e * e;
+    ++n;
+  }
+  return n == 0 ? 0.0 : std::sqrt(sum / static_cast<double>(n));
+}
+
+// Union-find over mission indices.
+struct Clusters {
+  std::vector<int> parent;
+  explicit Clusters(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
+  int Find(int i) { return parent[i] == i ? i : parent[i] = Find(parent[i]); }
+  void Join(int a, int b) {
+    a = Find(a);
+    b = Find(b);
+    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the older mission is the root
+  }
+};
+
+class CancelCallback : public ceres::IterationCallback {
+ public:
+  explicit CancelCallback(ProgressObserver* progress) : progress_(progress) {}
+  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
+    radius = summary.trust_region_radius;
+    if (progress_ != nullptr && progress_->CancelRequested()) {
+      cancelled = true;
+      return ceres::SOLVER_ABORT;
+    }
+    return ceres::SOLVER_CONTINUE;
+  }
+  bool cancelled = false;
+  double radius = 1e4;
+
+ private:
+  ProgressObserver* progress_;
+};
+
+void CheckFinite(const VIMap& map, const VertexId& id) {
+  const mapstore::Vertex& v = map.vertex(id);
+  if (!v.T_M_I.translation().allFinite() || !v.T_M_I.rotation().coeffs().allFinite() ||
+      !v.v_M.allFinite() || !v.gyro_bias.allFinite() || !v.accel_bias.allFinite()) {
+    throw std::invalid_argument("vertex " + id.Hex() + ": a state that is not finite (NaN/inf)");
+  }
+}
+
+}  // namespace
+
+ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap* map,
+                                    const std::vector<MissionId>& missions,
+                                    ProgressObserver* progress) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::string problem_text = options.Validate();
+  if (!problem_text.empty()) throw std::invalid_argument("optimization options: " + problem_text);
+  ViOptimizationSummary summary;
+  summary.command = options.inertial ? "optvi" : "optv";
+  const std::vector<MissionId> selected = missions.empty() ? map->mission_ids() : missions;
+  std::unordered_map<MissionId, int, IdHash> mission_index;
+  for (std::size_t i = 0; i < selected.size(); ++i) mission_index[selected[i]] = static_cast<int>(i);
+
+  // ---- states (copied out of the map; written back only at the end). Every block lives in one
+  // arena, handed out in the (deterministic) order the problem is built: Ceres orders blocks
+  // by address (e.g. in the Schur elimination), so the same map gives the same arithmetic.
+  std::size_t max_cameras = 1;
+  for (const MissionId& m : map->mission_ids()) {
+    max_cameras = std::max(max_cameras, map->mission(m).rig.cameras.size());
+  }
+  std::vector<double> arena;
+  arena.reserve(map->num_vertices() * 16 + map->mission_ids().size() * 7 * (1 + max_cameras) +
+                map->num_landmarks() * 3);
+  auto allocate = [&arena](std::size_t n) {
+    const std::size_t offset = arena.size();
+    if (offset + n > arena.capacity()) throw std::logic_error("optimization arena too small");
+    arena.resize(offset + n);
+    return arena.data() + offset;
+  };
+  std::unordered_map<VertexId, double*, IdHash> poses;
+  std::unordered_map<VertexId, double*, IdHash> speed_biases;
+  std::unordered_map<MissionId, double*, IdHash> baseframes;
+  std::map<std::pair<MissionId, uint32_t>, double*> extrinsics;
+  std::unordered_map<LandmarkId, double*, IdHash> landmarks;
+  auto pose_of = [&](const VertexId& id) -> double* {
+    auto it = poses.find(id);
+    if (it == poses.end()) {
+      CheckFinite(*map, id);
+      it = poses.emplace(id, allocate(7)).first;
+      PoseToBlock(map->vertex(id).T_M_I, it->second);
+    }
+    return it->second;
+  };
+  auto speed_bias_of = [&](const VertexId& id) -> double* {
+    auto it = speed_biases.find(id);
+    if (it == speed_biases.end()) {
+      const mapstore::Vertex& x = map->vertex(id);
+      double* sb = allocate(9);
+      for (int k = 0; k < 3; ++k) {
+        sb[k] = x.v_M[k];
+        sb[3 + k] = x.gyro_bias[k];
+        sb[6 + k] = x.accel_bias[k];
+      }
+      it = speed_biases.emplace(id, sb).first;
+    }
+    return it->second;
+  };
+  auto baseframe_of = [&](const MissionId& id) -> double* {
+    auto it = baseframes.find(id);
+    if (it == baseframes.end()) {
+      it = baseframes.emplace(id, allocate(7)).first;
+      PoseToBlock(map->mission(id).T_G_M, it->second);
+    }
+    return it->second;
+  };
+  auto extrinsics_of = [&](const MissionId& id, uint32_t camera) -> double* {
+    auto key = std::make_pair(id, camera);
+    auto it = extrinsics.find(key);
+    if (it == extrinsics.end()) {
+      it = extrinsics.emplace(key, allocate(7)).first;
+      PoseToBlock(map->mission(id).rig.cameras.at(camera).T_I_C, it->second);
+    }
+    return it->second;
+  };
+
+  ceres::Problem::Options problem_options;
+  problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+  ceres::Problem problem(problem_options);
+  std::unique_ptr<ceres::LossFunction> loss;
+  const double loss_scale = options.ba_robust_loss_scale_px / options.keypoint_sigma_px;
+  if (options.ba_robust_loss == "huber") loss = std::make_unique<ceres::HuberLoss>(loss_scale);
+  if (options.ba_robust_loss == "cauchy") loss = std::make_unique<ceres::CauchyLoss>(loss_scale);
+  Clusters clusters(selected.size());
+
+  // ---- inertial terms
+  std::vector<std::unique_ptr<ImuPreintegration>> preintegrations;
+  std::vector<VertexId> preintegration_from;
+  if (options.inertial) {
+    for (const MissionId& m : selected) {
+      const std::vector<VertexId> chain = map->VertexChain(m);
+      if (chain.size() != map->vertex_ids(m).size()) {
+        throw std::invalid_argument("mission " + m.Hex() + ": its vertices are not one chain of "
+                                    "IMU edges (check_map_consistency names the break)");
+      }
+      if (chain.size() < 2) continue;
+      const SensorRig& rig = map->mission(m).rig;
+      for (const mapstore::EdgeId& eid : map->edge_ids(m)) {
+        const mapstore::Edge& e = map->edge(eid);
+        if (e.type != EdgeType::kImu) continue;
+        double* pose_i = pose_of(e.from);
+        double* speed_bias_i = speed_bias_of(e.from);
+        double* pose_j = pose_of(e.to);
+        double* speed_bias_j = speed_bias_of(e.to);
+        const mapstore::Vertex& from = map->vertex(e.from);
+        try {
+          preintegrations.push_back(std::make_unique<ImuPreintegration>(
+              e.imu_samples, rig.imu.noise, from.gyro_bias, from.accel_bias));
+        } catch (const std::invalid_argument& error) {
+          throw std::invalid_argument("IMU edge " + eid.Hex() + ": " + error.what());
+        }
+        preintegration_from.push_back(e.from);
+        problem.AddResidualBlock(
+            new InertialCostFunction(preintegrations.back().get(), rig.imu.gravity_magnitude),
+            nullptr, pose_i, speed_bias_i, pose_j, speed_bias_j);
+        ++summary.inertial_residuals;
+      }
+      if (summary.inertial_residuals == 0 && chain.size() > 1) {
+        throw std::invalid_argument("mission " + m.Hex() + " has no IMU edges: use optv");
+      }
+    }
+  }
+
+  // ---- visual terms: good landmarks stored in the selected missions
+  std::vector<Observation> observations;
+  std::unordered_map<LandmarkId, std::vector<std::size_t>, IdHash> landmark_observations;
+  if (options.visual) {
+    for (const MissionId& m : selected) {
+      for (const LandmarkId& lid : map->landmark_ids(m)) {
+        const mapstore::Landmark& l = map->landmark(lid);
+        if (l.quality != mapstore::LandmarkQuality::kGood) continue;
+        const Eigen::Vector3d p_G = map->LandmarkPosition_G(lid);
+        if (!p_G.allFinite()) {
+          throw std::invalid_argument("landmark " + lid.Hex() + ": a position that is not finite");
+        }
+        double* block = allocate(3);
+        landmarks[lid] = block;
+        for (int k = 0; k < 3; ++k) block[k] = p_G[k];
+        for (const LandmarkObservation& o : l.observations) {
+          const mapstore::Vertex& v = map->vertex(o.vertex_id);
+          const mapstore::Mission& observer = map->mission(v.mission_id);
+          Observation ob{lid,
+                         o,
+                         &observer.rig.cameras.at(o.camera).camera,
+                         v.frames.at(o.camera).keypoints.at(o.keypoint).uv,
+                         pose_of(o.vertex_id),
+                         block,
+                         baseframe_of(v.mission_id),
+                         extrinsics_of(v.mission_id, o.camera)};
+          ob.residual = problem.AddResidualBlock(
+              new ReprojectionCostFunction(ob.camera, ob.uv, options.keypoint_sigma_px),
+              loss.get(), ob.pose_M_I, ob.p_G, ob.pose_G_M, ob.pose_I_C);
+          landmark_observations[lid].push_back(observations.size());
+          observations.push_back(ob);
+          auto it = mission_index.find(v.mission_id);
+          if (it != mission_index.end()) clusters.Join(mission_index.at(m), it->second);
+        }
+      }
+    }
+    summary.reprojection_residuals = observations.size();
+  }
+  if (problem.NumResidualBlocks() == 0) {
+    throw std::invalid_argument(summary.command + ": nothing to optimize (no good landmarks" +
+                                std::string(options.inertial ? " and no IMU edges" : "") +
+                                " in the selected missions; run elq?)");
+  }
+  summary.landmarks = landmarks.size();
+
+  // ---- which blocks move
+  // Owned here (the problem does not take ownership); they outlive the solve.
+  PoseManifold pose_manifold;
+  GaugePoseManifold position_yaw_fixed(true, true);
+  std::vector<std::unique_ptr<GaugePoseManifold>> scale_gauges;
+  ceres::SubsetManifold biases_fixed(9, {3, 4, 5, 6, 7, 8});
+  for (auto& [id, pose] : poses) {
+    if (!problem.HasParameterBlock(pose)) continue;
+    if (mission_index.count(map->vertex(id).mission_id) == 0) {
+      problem.SetParameterBlockConstant(pose);  // an observer of another mission
+    } else {
+      problem.SetManifold(pose, &pose_manifold);
+      ++summary.vertices;
+    }
+  }
+  for (auto& [id, sb] : speed_biases) {
+    (void)id;
+    if (options.ba_fix_biases) {
+      problem.SetManifold(sb, &biases_fixed);
+    }
+  }
+  for (auto& [id, pose] : baseframes) {
+    (void)id;
+    problem.SetParameterBlockConstant(pose);
+  }
+  for (auto& [key, pose] : extrinsics) {
+    (void)key;
+    if (options.ba_fix_extrinsics) {
+      problem.SetParameterBlockConstant(pose);
+    } else {
+      problem.SetManifold(pose, &pose_manifold);
+    }
+  }
+  for (auto& [id, p] : landmarks) {
+    (void)id;
+    if (options.ba_fix_landmarks) problem.SetParameterBlockConstant(p);
+  }
+  // Gauge per cluster: the anchor mission (the first with a known baseframe, else the first).
+  std::map<int, std::vector<int>> members;
+  for (std::size_t i = 0; i < selected.size(); ++i) {
+    members[clusters.Find(static_cast<int>(i))].push_back(static_cast<int>(i));
+  }
+  summary.clusters = members.size();
+  for (const auto& [root, list] : members) {
+    (void)root;
+    int anchor = list.front();
+    for (int i : list) {
+      if (map->mission(selected[i]).baseframe_known) {
+        anchor = i;
+        break;
+      }
+    }
+    std::vector<double*> in_problem;
+    for (const VertexId& v : map->VertexChain(selected[anchor])) {
+      auto it = poses.find(v);
+      if (it != poses.end() && problem.HasParameterBlock(it->second)) {
+        in_problem.push_back(it->second);
+      }
+    }
+    if (in_problem.empty()) continue;
+    if (options.inertial) {
+      problem.SetManifold(in_problem[0], &position_yaw_fixed);
+      continue;
+    }
+    // Visual only: the first vertex's pose, and the scale: the distance to the vertex farthest
+    // from it (the longest baseline, so the VIO's scale error enters least).
+    problem.SetParameterBlockConstant(in_problem[0]);
+    const Eigen::Map<const Eigen::Vector3d> p0(in_problem[0]);
+    double* far = nullptr;
+    double far_distance = 0.0;
+    for (double* b : in_problem) {
+      const double d = (Eigen::Map<const Eigen::Vector3d>(b) - p0).norm();
+      if (d > far_distance) {
+        far_distance = d;
+        far = b;
+      }
+    }
+    if (far != nullptr && far_distance > 1e-3) {
+      scale_gauges.push_back(std::make_unique<GaugePoseManifold>(
+          false, false, Eigen::Map<const Eigen::Vector3d>(far) - p0));
+      problem.SetManifold(far, scale_gauges.back().get());
+    }
+  }
+
+  // ---- solver
+  ceres::Solver::Options solver;
+  solver.minimizer_type = ceres::TRUST_REGION;
+  solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
+  solver.num_threads = options.ba_num_threads;
+  solver.jacobi_scaling = true;
+  solver.logging_type = ceres::SILENT;
+  const bool schur = options.ba_linear_solver != "sparse_normal_cholesky";
+  if (options.ba_linear_solver == "sparse_schur") solver.linear_solver_type = ceres::SPARSE_SCHUR;
+  if (options.ba_linear_solver == "dense_schur") solver.linear_solver_type = ceres::DENSE_SCHUR;
+  if (options.ba_linear_solver == "sparse_normal_cholesky") {
+    solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+  }
+  if (options.ba_linear_solver == "iterative_schur") {
+    solver.linear_solver_type = ceres::ITERATIVE_SCHUR;
+    solver.preconditioner_type = ceres::SCHUR_JACOBI;
+  }
+  if (schur && !options.ba_fix_landmarks && !landmarks.empty()) {
+    // Landmarks first: eliminated by the Schur complement.
+    auto ordering = std::make_shared<ceres::ParameterBlockOrdering>();
+    std::vector<double*> blocks;
+    problem.GetParameterBlocks(&blocks);
+    for (double* b : blocks) ordering->AddElementToGroup(b, problem.ParameterBlockSize(b) == 3 ? 0 : 1);
+    solver.linear_solver_ordering = ordering;
+  }
+  CancelCallback callback(progress);
+  solver.callbacks.push_back(&callback);
+  solver.update_state_every_iteration = false;
+
+  summary.reprojection_rmse_before_px = RmsePx(observations);
+  std::unordered_map<VertexId, Transformation, IdHash> T_G_I_before;
+  for (const MissionId& m : selected) {
+    for (const VertexId& v : map->vertex_ids(m)) T_G_I_before[v] = map->T_G_I(v);
+  }
+  std::size_t good_before = 0;
+  for (const LandmarkId& lid : LandmarksOf(*map, selected)) {
+    good_before += map->landmark(lid).quality == mapstore::LandmarkQuality::kGood;
+  }
+  summary.good_landmarks_before = good_before;
+
+  BeginProgress(progress, summary.command, static_cast<std::size_t>(options.ba_num_iterations));
+  int done = 0;
+  double radius = 1e4;
+  bool first = true;
+  while (done < options.ba_num_iterations) {
+    solver.max_num_iterations = std::min(options.ba_iterations_per_round,
+                                         options.ba_num_iterations - done);
+    solver.initial_trust_region_radius = radius;
+    ceres::Solver::Summary round;
+    ceres::Solve(solver, &problem, &round);
+    if (callback.cancelled) throw Cancelled();
+    if (round.termination_type == ceres::FAILURE) {
+      throw std::runtime_error(summary.command + ": the solver failed: " + round.message);
+    }
+    radius = std::max(callback.radius, 1e-8);
+    if (first) summary.initial_cost = round.initial_cost;
+    first = false;
+    summary.final_cost = round.final_cost;
+    summary.solve_seconds += round.total_time_in_seconds;
+    const int iterations = std::max(1, static_cast<int>(round.iterations.size()) - 1);
+    summary.iterations += iterations;
+    done += iterations;
+    ++summary.rounds;
+    summary.termination =
+        std::string(ceres::TerminationTypeToString(round.termination_type)) + ": " + round.message;
+
+    // Re-integrate the IMU edges whose start bias moved far from the linearization point.
+    std::size_t reintegrated = 0;
+    for (std::size_t k = 0; k < preintegrations.size(); ++k) {
+      const double* sb = speed_biases.at(preintegration_from[k]);
+      const Eigen::Vector3d bg(sb[3], sb[4], sb[5]), ba(sb[6], sb[7], sb[8]);
+      if (preintegrations[k]->NeedsReintegration(bg, ba, options.preintegration)) {
+        preintegrations[k]->Reintegrate(bg, ba);
+        ++reintegrated;
+      }
+    }
+    summary.reintegrations += reintegrated;
+    // Outlier rejection: observations behind the camera or too far off; a landmark left with
+    // fewer than two observations loses them all (its depth would be unconstrained).
+    // Only once the round has settled (cost down by less than 10 %, or converged): from a
+    // perturbed start every observation looks like an outlier.
+    const bool settled = round.termination_type == ceres::CONVERGENCE ||
+                         round.final_cost > 0.9 * round.initial_cost;
+    std::size_t outliers = 0;
+    if (options.ba_outlier_rejection && settled) {
+      for (auto& [lid, list] : landmark_observations) {
+        (void)lid;
+        std::size_t kept = 0;
+        for (std::size_t k : list) {
+          Observation& o = observations[k];
+          if (o.residual == nullptr) continue;
+          const double e = PixelError(o);
+          if (e < 0 || e > options.ba_outlier_threshold_px) {
+            problem.RemoveResidualBlock(o.residual);
+            o.residual = nullptr;
+            ++outliers;
+          } else {
+            ++kept;
+          }
+        }
+        if (kept == 1) {
+          for (std::size_t k : list) {
+            Observation& o = observations[k];
+            if (o.residual == nullptr) continue;
+            problem.RemoveResidualBlock(o.residual);
+            o.residual = nullptr;
+            ++outliers;
+          }
+        }
+      }
+    }
+    summary.outlier_observations += outliers;
+    ReportProgress(progress, static_cast<std::size_t>(done));
+    if (round.termination_type == ceres::CONVERGENCE && outliers == 0 && reintegrated == 0) break;
+  }
+  summary.reprojection_rmse_after_px = RmsePx(observations);
+
+  // ---- write back: vertices first (landmarks are stored relative to their store vertex)
+  for (const auto& [id, pose] : poses) {
+    if (mission_index.count(map->vertex(id).mission_id) == 0) continue;
+    map->vertex(id).T_M_I = BlockToPose(pose);
+  }
+  for (const auto& [id, sb] : speed_biases) {
+    mapstore::Vertex& v = map->vertex(id);
+    v.v_M = Eigen::Vector3d(sb[0], sb[1], sb[2]);
+    v.gyro_bias = Eigen::Vector3d(sb[3], sb[4], sb[5]);
+    v.accel_bias = Eigen::Vector3d(sb[6], sb[7], sb[8]);
+  }
+  if (!options.ba_fix_extrinsics) {
+    for (const auto& [key, pose] : extrinsics) {
+      if (mission_index.count(key.first) == 0) continue;
+      map->mission(key.first).rig.cameras[key.second].T_I_C = BlockToPose(pose);
+    }
+  }
+  for (const auto& [id, p] : landmarks) {
+    mapstore::Landmark& l = map->landmark(id);
+    l.p_I = map->T_G_I(l.store_vertex_id).inverse() * Eigen::Vector3d(p[0], p[1], p[2]);
+  }
+  // Dropped observations leave the map; a landmark left without any is removed.
+  VIMap::IdSet orphans;
+  for (const Observation& o : observations) {
+    if (o.residual != nullptr) continue;
+    map->RemoveObservation(o.landmark, o.observation);
+    if (map->landmark(o.landmark).observations.empty()) orphans.insert(o.landmark);
+  }
+  map->RemoveLandmarks(orphans);
+
+  for (const MissionId& m : selected) {
+    MissionChange c;
+    c.mission = m;
+    double sum_shift = 0.0, sum_rotation = 0.0;
+    for (const VertexId& v : map->vertex_ids(m)) {
+      const Transformation& before = T_G_I_before.at(v);
+      const Transformation after = map->T_G_I(v);
+      const double shift = (after.translation() - before.translation()).norm();
+      const double rotation = AngleBetween(after.rotation(), before.rotation()) * 180.0 / M_PI;
+      sum_shift += shift;
+      sum_rotation += rotation;
+      c.max_shift_m = std::max(c.max_shift_m, shift);
+      c.max_rotation_deg = std::max(c.max_rotation_deg, rotation);
+      ++c.vertices;
+    }
+    if (c.vertices > 0) {
+      c.mean_shift_m = sum_shift / static_cast<double>(c.vertices);
+      c.mean_rotation_deg = sum_rotation / static_cast<double>(c.vertices);
+    }
+    summary.missions.push_back(c);
+  }
+  if (options.evaluate_quality) {
+    const LandmarkQualitySummary q = EvaluateLandmarkQualities(options.quality, map, selected);
+    summary.good_landmarks_after = q.good_after;
+  } else {
+    summary.good_landmarks_after = summary.good_landmarks_before;
+  }
+  summary.total_seconds = SecondsSince(start);
+  return summary;
+}
+
+std::string ViOptimizationSummary::BriefReport() const {
+  std::ostringstream out;
+  out << command << ": cost " << initial_cost << " -> " << final_cost << " in " << iterations
+      << " iterations (" << rounds << " rounds), reprojection RMSE " << reprojection_rmse_before_px
+      << " -> " << reprojection_rmse_after_px << " px, " << total_seconds << " s";
+  return out.str();
+}
+
+std::string ViOptimizationSummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n"
+      << "  residuals: reprojection " << reprojection_residuals << ", inertial "
+      << inertial_residuals << "; vertices " << vertices << ", landmarks " << landmarks
+      << ", clusters " << clusters << "\n"
+      << "  solver: " << solve_seconds << " s, "
+      << (iterations > 0 ? 1000.0 * solve_seconds / iterations : 0.0) << " ms per iteration; "
+      << termination << "\n"
+      << "  outlier observations removed " << outlier_observations << ", IMU re-integrations "
+      << reintegrations << "; good landmarks " << good_landmarks_before << " -> "
+      << good_landmarks_after << "\n";
+  for (const MissionChange& c : missions) {
+    out << "  mission " << c.mission.Hex().substr(0, 8) << ": " << c.vertices
+        << " vertices moved mean " << c.mean_shift_m << " m (max " << c.max_shift_m << "), "
+        << c.mean_rotation_deg << " deg (max " << c.max_rotation_deg << ")\n";
+  }
+  return out.str();
+}
+
+}  // namespace vilma::mapping
