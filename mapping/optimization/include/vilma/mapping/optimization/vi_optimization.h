@@ -46,7 +46,10 @@ struct ViOptimizationOptions {
   bool ba_fix_extrinsics = true;   // camera extrinsics T_I_C held
   bool ba_outlier_rejection = true;
   double ba_outlier_threshold_px = 10.0;  // drop observations with a larger error [px]
-  int ba_num_threads = 2;
+  // Solver threads. 1 (default): bit-identical results run after run (the deterministic
+  // offline rule); more threads reduce the Schur complement in a varying order, equal to
+  // round-off only, for ~8 % less time on 2 cores (docs/optimization.md).
+  int ba_num_threads = 1;
   // sparse_schur (landmarks eliminated, SuiteSparse), iterative_schur (SCHUR_JACOBI, for maps
   // whose reduced camera matrix does not fit), sparse_normal_cholesky, dense_schur (tiny maps).
   std::string ba_linear_solver = "sparse_schur";
