@@ -33,6 +33,8 @@ Command<O> OptimizationFlags(Command<O> c) {
           .Flag("ba_num_threads", &O::ba_num_threads, "solver threads")
           .Flag("ba_linear_solver", &O::ba_linear_solver,
                 "sparse_schur, iterative_schur, sparse_normal_cholesky or dense_schur")
+          .Flag("ba_initialize_imu_states", &O::ba_initialize_imu_states,
+                "first fit velocities and biases to the current poses (optvi)")
           .Flag("evaluate_quality", &O::evaluate_quality, "elq after the optimization")
           .Flag("map_mission", &O::map_mission,
                 "mission ids, unique prefixes or names, comma separated (default: all)",

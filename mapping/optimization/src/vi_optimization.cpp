@@ -222,7 +222,8 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
 
   // ---- inertial terms
   std::vector<std::unique_ptr<ImuPreintegration>> preintegrations;
-  std::vector<VertexId> preintegration_from;
+  std::vector<VertexId> preintegration_from, preintegration_to;
+  std::vector<double> preintegration_gravity;
   if (options.inertial) {
     for (const MissionId& m : selected) {
       const std::vector<VertexId> chain = map->VertexChain(m);
@@ -247,6 +248,8 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
           throw std::invalid_argument("IMU edge " + eid.Hex() + ": " + error.what());
         }
         preintegration_from.push_back(e.from);
+        preintegration_to.push_back(e.to);
+        preintegration_gravity.push_back(rig.imu.gravity_magnitude);
         problem.AddResidualBlock(
             new InertialCostFunction(preintegrations.back().get(), rig.imu.gravity_magnitude),
             nullptr, pose_i, speed_bias_i, pose_j, speed_bias_j);
@@ -384,6 +387,52 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
       scale_gauges.push_back(std::make_unique<GaugePoseManifold>(
           false, false, Eigen::Map<const Eigen::Vector3d>(far) - p0));
       problem.SetManifold(far, scale_gauges.back().get());
+    }
+  }
+
+  // ---- IMU states first: velocities and biases that fit the current trajectory (poses and
+  // landmarks held), re-integrating as the biases settle. A map whose biases are far off (zero
+  // where the gyroscope has 0.08 rad/s, as a map built from given poses) would otherwise start
+  // with IMU residuals that dwarf everything and drag the poses away.
+  if (options.inertial && options.ba_initialize_imu_states && !preintegrations.empty()) {
+    for (int pass = 0; pass < 4; ++pass) {
+      ceres::Problem::Options init_options;
+      init_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
+      ceres::Problem init(init_options);
+      for (std::size_t k = 0; k < preintegrations.size(); ++k) {
+        const VertexId from = preintegration_from[k];
+        const VertexId to = preintegration_to[k];
+        const ImuPreintegration* pre = preintegrations[k].get();
+        init.AddResidualBlock(
+            new InertialCostFunction(pre, preintegration_gravity[k]), nullptr, poses.at(from),
+            speed_biases.at(from), poses.at(to), speed_biases.at(to));
+        init.SetParameterBlockConstant(poses.at(from));
+        init.SetParameterBlockConstant(poses.at(to));
+      }
+      if (options.ba_fix_biases) {
+        for (auto& [id, sb] : speed_biases) {
+          (void)id;
+          if (init.HasParameterBlock(sb)) init.SetManifold(sb, &biases_fixed);
+        }
+      }
+      ceres::Solver::Options init_solver;
+      init_solver.linear_solver_type = ceres::SPARSE_NORMAL_CHOLESKY;
+      init_solver.max_num_iterations = 20;
+      init_solver.num_threads = options.ba_num_threads;
+      init_solver.logging_type = ceres::SILENT;
+      ceres::Solver::Summary init_summary;
+      ceres::Solve(init_solver, &init, &init_summary);
+      std::size_t reintegrated = 0;
+      for (std::size_t k = 0; k < preintegrations.size(); ++k) {
+        const double* sb = speed_biases.at(preintegration_from[k]);
+        const Eigen::Vector3d bg(sb[3], sb[4], sb[5]), ba(sb[6], sb[7], sb[8]);
+        if (preintegrations[k]->NeedsReintegration(bg, ba, options.preintegration)) {
+          preintegrations[k]->Reintegrate(bg, ba);
+          ++reintegrated;
+        }
+      }
+      summary.reintegrations += reintegrated;
+      if (reintegrated == 0) break;
     }
   }
 

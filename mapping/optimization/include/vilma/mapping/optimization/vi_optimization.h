@@ -14,7 +14,9 @@
 // directions VI cannot observe; gravity fixes roll and pitch), visual only its first vertex's
 // pose and the distance to the vertex farthest from it (the scale: 7 directions).
 //
-// Solve in rounds of ba_iterations_per_round Levenberg-Marquardt iterations (Ceres,
+// With inertial terms the velocities and biases are first fitted to the current poses (poses and
+// landmarks held), so that a map with poor bias estimates does not start with IMU residuals
+// that dwarf the rest. Then solve in rounds of ba_iterations_per_round Levenberg-Marquardt iterations (Ceres,
 // SPARSE_SCHUR with landmarks eliminated by default); between rounds: IMU edges whose bias moved
 // far are re-integrated (imu_preintegration.h), observations behind their camera or beyond
 // ba_outlier_threshold_px are dropped (outlier rejection, maplab's default), progress is
@@ -54,6 +56,9 @@ struct ViOptimizationOptions {
   // whose reduced camera matrix does not fit), sparse_normal_cholesky, dense_schur (tiny maps).
   std::string ba_linear_solver = "sparse_schur";
   PreintegrationOptions preintegration;
+  // Before the bundle adjustment: velocities and biases fitted to the current trajectory with
+  // poses and landmarks held (inertial terms only, re-integrating as the biases settle).
+  bool ba_initialize_imu_states = true;
   bool evaluate_quality = true;      // elq after the optimization
   LandmarkQualityOptions quality;
   std::string Validate() const;
