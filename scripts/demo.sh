@@ -94,6 +94,10 @@ reset_landmark_quality
 evaluate_landmark_quality
 retriangulate_landmarks
 initialize_track_landmarks
+# Visual-inertial bundle adjustment (IMU preintegration + reprojection), then judged against the
+# simulator's ground truth.
+optimize_visual_inertial
+eval_map $sim
 export_trajectory_to_csv --out=$loc/console/room-vio.txt --format=tum --frame=M
 csv_export --out=$loc/console/csv
 export_landmarks_ply --out=$loc/console/landmarks.ply --color_by=quality

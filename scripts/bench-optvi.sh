@@ -1,0 +1,124 @@
+#!/usr/bin/env bash
+# Visual-inertial batch optimization benchmark (docs/optimization.md, docs/benchmarks.md
+# "Optimization"). Two tables:
+#   1. simulated: the daemon's VI-map of each set (vilma-estimatord --input-log --save-map: the
+#      VIO's poses, no ground truth used), then `optvi` with its defaults; `eval_map` before and
+#      after: vertex ATE (posyaw), rotation, biases, good landmarks' reprojection and distance to
+#      the simulator's true surfaces; optvi time, ms per iteration and peak memory.
+#   2. real: ../shared/data/euroc_V1_01_keyframes (100 stereo keyframes over 135 s, real IMU
+#      between them): `vilma map-from-poses --perturb 0.2,3 --seed 1` (ground truth moved by
+#      0.2 m / 3 deg per keyframe), then the recipe `optvi; rtl; optvi; rtl; optvi; rtl; optvi`
+#      (elq with 2 observers: stereo keyframes); also the map from unperturbed ground truth
+#      through one optvi (how far the optimum lies from the ground truth).
+#
+# Usage: scripts/bench-optvi.sh [SET ...]     (default: room-easy hall street)
+#   VILMA_BUILD_DIR, VILMA_DATASETS, BENCH_WORK (default ${VILMA_CACHE:-~/.cache/vilma}/bench-optvi),
+#   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2.
+set -euo pipefail
+
+repo_dir=$(cd "$(dirname "$0")/.." && pwd)
+build_dir=${VILMA_BUILD_DIR:-$repo_dir/build}
+cache=${VILMA_CACHE:-$HOME/.cache/vilma}
+datasets=${VILMA_DATASETS:-$cache/datasets}
+work=${BENCH_WORK:-$cache/bench-optvi}
+shared=${VILMA_SHARED_DATA:-$repo_dir/../shared/data}
+bin=$build_dir/bin
+sets=("$@")
+[ ${#sets[@]} -eq 0 ] && sets=(room-easy hall street)
+for exe in vilma vilma-estimatord vilma-replay vilma-sim; do
+  [ -x "$bin/$exe" ] || { echo "bench-optvi: $bin/$exe is not built" >&2; exit 1; }
+done
+mkdir -p "$work"
+# shellcheck source=lib/vio-map.sh
+. "$repo_dir/scripts/lib/vio-map.sh"
+list=$(IFS=,; echo "${sets[*]}")
+VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" --only "$list" >&2
+
+# field FILE.json KEY [STAT]: a figure of an eval_map JSON (STAT: rmse, median, ...).
+field() {
+  python3 -c 'import json, sys
+d = json.load(open(sys.argv[1])); v = d[sys.argv[2]]
+print(v[sys.argv[3]] if isinstance(v, dict) else v)' "$1" "$2" "${3:-rmse}"
+}
+fmt() { awk -v v="$1" -v s="${2:-1}" -v d="${3:-4}" 'BEGIN { printf "%.*f", d, v * s }'; }
+# console OUT SCRIPT: `vilma console -c SCRIPT` under /usr/bin/time (peak memory into OUT.rss).
+console() {
+  local out=$1
+  shift
+  /usr/bin/time -f "%M" -o "$out.rss" "$bin/vilma" console -c "$1" > "$out" 2>&1 ||
+    { cat "$out" >&2; echo "bench-optvi: console failed ($out)" >&2; exit 1; }
+}
+# optvi_figure OUT NAME: from the optvi report in OUT: seconds (s), ms per iteration (ms),
+# iterations (it).
+optvi_figure() {
+  case "$2" in
+    s) grep -o '^optvi: .* px, [0-9.e+-]* s$' "$1" | tail -1 | awk '{ print $(NF - 1) }' ;;
+    ms) grep -o '[0-9.]* ms per iteration' "$1" | tail -1 | awk '{ print $1 }' ;;
+    it) grep -o 'in [0-9]* iterations' "$1" | tail -1 | awk '{ print $2 }' ;;
+  esac
+}
+
+echo "### Simulated: daemon VI-maps (VIO poses) -> optvi"
+echo
+echo "| set | vertices | good landmarks | ATE [m] VIO -> optvi (ratio) | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | landmarks to surfaces, median [cm] | reprojection RMSE [px] | optvi [s] (iterations, ms/iteration) | peak RSS [MB] |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|"
+for set in "${sets[@]}"; do
+  map=$(vio_map "$set")
+  out=$work/$set-optvi
+  d=$datasets/$set
+  console "$out.console" "load $map; eval_map $d --json=$out.before.json; optvi; \
+    eval_map $d --json=$out.after.json; cmc; save --out=$out.map --overwrite"
+  b=$out.before.json a=$out.after.json
+  printf '| %s | %s | %s | %s -> %s (%s) | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s (%s, %s) | %s |\n' \
+    "$set" "$(field "$b" vertices)" "$(field "$b" good_landmarks)" \
+    "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
+    "$(awk -v x="$(field "$a" ate_translation_m)" -v y="$(field "$b" ate_translation_m)" 'BEGIN { printf "%.2f", x / y }')" \
+    "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
+    "$(fmt "$(field "$b" gyro_bias_error median)" 1 5)" "$(fmt "$(field "$a" gyro_bias_error median)" 1 5)" \
+    "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
+    "$(fmt "$(field "$b" surface_distance_m median)" 100 2)" "$(fmt "$(field "$a" surface_distance_m median)" 100 2)" \
+    "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
+    "$(fmt "$(optvi_figure "$out.console" s)" 1 1)" "$(optvi_figure "$out.console" it)" \
+    "$(fmt "$(optvi_figure "$out.console" ms)" 1 0)" \
+    "$(awk -v k="$(cat "$out.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')"
+done
+
+[ "${BENCH_REAL:-1}" = 0 ] && exit 0
+kf=$shared/euroc_V1_01_keyframes
+[ -d "$kf" ] || { echo "bench-optvi: $kf missing: no real-data table" >&2; exit 0; }
+echo
+echo "### Real: EuRoC V1_01, 100 stereo keyframes, real IMU between them"
+echo
+echo "| start | map | ATE [m] before -> after | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | reprojection RMSE [px] | good landmarks after | console [s] |"
+echo "|---|---|---|---|---|---|---|---|---|"
+for start in perturbed gt; do
+  map=$work/euroc-kf-$start
+  if stale "$map/manifest.yaml" "$bin/vilma" || [ ! -d "$map" ]; then
+    rm -rf "$map"
+    args=()
+    [ "$start" = perturbed ] && args=(--perturb 0.2,3 --seed 1)
+    "$bin/vilma" map-from-poses "$kf" --out "$map" "${args[@]}" > "$map.out" 2>&1 ||
+      { cat "$map.out" >&2; exit 1; }
+  fi
+  out=$work/euroc-kf-$start-optvi
+  if [ "$start" = perturbed ]; then
+    recipe="optvi --evaluate_quality=false; rtl; optvi --evaluate_quality=false; rtl; \
+      optvi --evaluate_quality=false; rtl; optvi"
+    label="0.2 m / 3 deg off, optvi; rtl x3; optvi"
+  else
+    recipe="optvi"
+    label="ground truth, optvi"
+  fi
+  start_s=$(date +%s.%N)
+  console "$out.console" "load $map; set elq_min_observers 2; eval_map $kf --json=$out.before.json; \
+    $recipe; eval_map $kf --json=$out.after.json; cmc"
+  seconds=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+  b=$out.before.json a=$out.after.json
+  printf '| %s | map-from-poses | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s | %s |\n' \
+    "$label" "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
+    "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
+    "$(fmt "$(field "$b" gyro_bias_error median)" 1 5)" "$(fmt "$(field "$a" gyro_bias_error median)" 1 5)" \
+    "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
+    "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
+    "$(field "$a" good_landmarks)" "$seconds"
+done
