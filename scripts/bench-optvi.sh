@@ -2,7 +2,8 @@
 # Visual-inertial batch optimization benchmark (docs/optimization.md, docs/benchmarks.md
 # "Optimization"). Two tables:
 #   1. simulated: the daemon's VI-map of each set (vilma-estimatord --input-log --save-map: the
-#      VIO's poses, no ground truth used), then `optvi` with its defaults; `eval_map` before and
+#      VIO's poses, no ground truth used), then `optvi` with its defaults, and `lc; rtl; optvi`
+#      (loop closure merges re-observed landmarks first); `eval_map` before and
 #      after: vertex ATE (posyaw), rotation, biases, good landmarks' reprojection and distance to
 #      the simulator's true surfaces; optvi time, ms per iteration and peak memory.
 #   2. real: ../shared/data/euroc_V1_01_keyframes (100 stereo keyframes over 135 s, real IMU
@@ -58,29 +59,33 @@ optvi_figure() {
   esac
 }
 
-echo "### Simulated: daemon VI-maps (VIO poses) -> optvi"
+echo "### Simulated: daemon VI-maps (VIO poses) -> optvi, and lc; rtl; optvi"
 echo
-echo "| set | vertices | good landmarks | ATE [m] VIO -> optvi (ratio) | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | landmarks to surfaces, median [cm] | reprojection RMSE [px] | optvi [s] (iterations, ms/iteration) | peak RSS [MB] |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| set | pipeline | vertices | good landmarks | ATE [m] VIO -> after (ratio) | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | landmarks to surfaces, median [cm] | reprojection RMSE [px] | optvi [s] (iterations, ms/iteration) | console [s] | peak RSS [MB] |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for set in "${sets[@]}"; do
   map=$(vio_map "$set")
-  out=$work/$set-optvi
   d=$datasets/$set
-  console "$out.console" "load $map; eval_map $d --json=$out.before.json; optvi; \
-    eval_map $d --json=$out.after.json; cmc; save --out=$out.map --overwrite"
-  b=$out.before.json a=$out.after.json
-  printf '| %s | %s | %s | %s -> %s (%s) | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s (%s, %s) | %s |\n' \
-    "$set" "$(field "$b" vertices)" "$(field "$b" good_landmarks)" \
-    "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
-    "$(awk -v x="$(field "$a" ate_translation_m)" -v y="$(field "$b" ate_translation_m)" 'BEGIN { printf "%.2f", x / y }')" \
-    "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
-    "$(fmt "$(field "$b" gyro_bias_error median)" 1 5)" "$(fmt "$(field "$a" gyro_bias_error median)" 1 5)" \
-    "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
-    "$(fmt "$(field "$b" surface_distance_m median)" 100 2)" "$(fmt "$(field "$a" surface_distance_m median)" 100 2)" \
-    "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
-    "$(fmt "$(optvi_figure "$out.console" s)" 1 1)" "$(optvi_figure "$out.console" it)" \
-    "$(fmt "$(optvi_figure "$out.console" ms)" 1 0)" \
-    "$(awk -v k="$(cat "$out.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')"
+  for pipeline in "optvi" "lc; rtl; optvi"; do
+    out=$work/$set-$(echo "$pipeline" | tr -d ' ;')
+    start_s=$(date +%s.%N)
+    console "$out.console" "load $map; eval_map $d --json=$out.before.json; $pipeline; \
+      eval_map $d --json=$out.after.json; cmc; save --out=$out.map --overwrite"
+    seconds=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+    b=$out.before.json a=$out.after.json
+    printf '| %s | `%s` | %s | %s | %s -> %s (%s) | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s (%s, %s) | %s | %s |\n' \
+      "$set" "$pipeline" "$(field "$b" vertices)" "$(field "$a" good_landmarks)" \
+      "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
+      "$(awk -v x="$(field "$a" ate_translation_m)" -v y="$(field "$b" ate_translation_m)" 'BEGIN { printf "%.2f", x / y }')" \
+      "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
+      "$(fmt "$(field "$b" gyro_bias_error median)" 1 5)" "$(fmt "$(field "$a" gyro_bias_error median)" 1 5)" \
+      "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
+      "$(fmt "$(field "$b" surface_distance_m median)" 100 2)" "$(fmt "$(field "$a" surface_distance_m median)" 100 2)" \
+      "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
+      "$(fmt "$(optvi_figure "$out.console" s)" 1 1)" "$(optvi_figure "$out.console" it)" \
+      "$(fmt "$(optvi_figure "$out.console" ms)" 1 0)" "$seconds" \
+      "$(awk -v k="$(cat "$out.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')"
+  done
 done
 
 [ "${BENCH_REAL:-1}" = 0 ] && exit 0

@@ -128,13 +128,19 @@ std::vector<mapstore::MissionId> MissionsInCommonFrame(const mapstore::VIMap& ma
 LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
                                      const LocalizationMapOptions& options,
                                      LocalizationMapReport* report) {
-  const std::string error = options.Validate();
-  if (!error.empty()) throw InputError(FormatInputError("LocalizationMapOptions", "", error));
   const std::vector<mapstore::MissionId> missions = MissionsInCommonFrame(map);
   if (report != nullptr) {
     report->missions_used = static_cast<int>(missions.size());
     report->missions_skipped = static_cast<int>(map.mission_ids().size() - missions.size());
   }
+  return BuildLocalizationMapOfMissions(map, missions, options);
+}
+
+LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
+                                               const std::vector<mapstore::MissionId>& missions,
+                                               const LocalizationMapOptions& options) {
+  const std::string error = options.Validate();
+  if (!error.empty()) throw InputError(FormatInputError("LocalizationMapOptions", "", error));
   LocalizationMap out;
   out.observer_begin.push_back(0);
   std::unordered_map<mapstore::VertexId, uint32_t, mapstore::IdHash> observer_of;

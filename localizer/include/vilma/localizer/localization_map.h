@@ -71,6 +71,12 @@ LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
                                      const LocalizationMapOptions& options = {},
                                      LocalizationMapReport* report = nullptr);
 
+// The same from the given missions (the caller vouches that they share the frame G), in their
+// order: loop closure queries a mission against itself and the missions anchored with it.
+LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
+                                               const std::vector<mapstore::MissionId>& missions,
+                                               const LocalizationMapOptions& options = {});
+
 // Binary little-endian file: magic "VLOCMAP1", format version, counts, arrays, then the CRC-32
 // of everything before it. Written atomically (temporary file, fsync, rename). Load throws
 // InputError naming the file and the field that is wrong.
