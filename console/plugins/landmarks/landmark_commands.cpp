@@ -1,8 +1,6 @@
 // Landmark quality and triangulation commands (mapping/landmarks, docs/landmarks.md):
 // evaluate_landmark_quality / elq, retriangulate_landmarks / rtl, initialize_track_landmarks /
 // itl, remove_bad_landmarks / rbl, reset_landmark_quality / rlq.
-#include <sstream>
-
 #include "vilma/console/command_registry.h"
 #include "vilma/mapping/inspection/map_statistics.h"
 #include "vilma/mapping/landmarks/landmark_quality.h"
@@ -15,13 +13,7 @@ constexpr const char* kMissionHelp = "mission ids, unique prefixes or names, com
                                      "(default: every mission)";
 
 std::vector<mapstore::MissionId> Missions(const mapstore::VIMap& map, const std::string& list) {
-  std::vector<mapstore::MissionId> missions;
-  std::stringstream words(list);
-  std::string word;
-  while (std::getline(words, word, ',')) {
-    if (!word.empty()) missions.push_back(mapping::ResolveMission(map, word));
-  }
-  return missions;
+  return mapping::ResolveMissions(map, list);
 }
 
 // The elq flags (maplab's names), bound to a LandmarkQualityOptions reached through `quality`.

@@ -1,6 +1,4 @@
 // loopclosure_all_missions / lc (mapping/loop_closure, docs/loop-closure.md).
-#include <sstream>
-
 #include "vilma/console/command_registry.h"
 #include "vilma/mapping/inspection/map_statistics.h"
 #include "vilma/mapping/loop_closure/loop_closure.h"
@@ -33,12 +31,8 @@ void Register(CommandRegistry* registry) {
                 "query missions: ids, unique prefixes or names, comma separated (default: all)",
                 {"mission"})
           .Run([](CommandContext& c, const LcOptions& o) {
-            std::vector<mapstore::MissionId> missions;
-            std::stringstream words(o.map_mission);
-            std::string word;
-            while (std::getline(words, word, ',')) {
-              if (!word.empty()) missions.push_back(mapping::ResolveMission(c.map(), word));
-            }
+            const std::vector<mapstore::MissionId> missions =
+                mapping::ResolveMissions(c.map(), o.map_mission);
             try {
               c.out() << mapping::CloseLoops(o, &c.map(), missions, c.progress()).Report();
             } catch (const std::invalid_argument& e) {

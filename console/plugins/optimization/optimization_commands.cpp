@@ -1,7 +1,5 @@
 // optimize_visual_inertial / optvi and optimize_visual / optv (mapping/optimization,
 // docs/optimization.md).
-#include <sstream>
-
 #include "vilma/console/command_registry.h"
 #include "vilma/mapping/inspection/map_statistics.h"
 #include "vilma/mapping/optimization/vi_optimization.h"
@@ -42,12 +40,8 @@ Command<O> OptimizationFlags(Command<O> c) {
 }
 
 void Run(CommandContext& c, const OptOptions& o) {
-  std::vector<mapstore::MissionId> missions;
-  std::stringstream words(o.map_mission);
-  std::string word;
-  while (std::getline(words, word, ',')) {
-    if (!word.empty()) missions.push_back(mapping::ResolveMission(c.map(), word));
-  }
+  const std::vector<mapstore::MissionId> missions =
+      mapping::ResolveMissions(c.map(), o.map_mission);
   try {
     c.out() << mapping::OptimizeViMap(o, &c.map(), missions, c.progress()).FullReport();
   } catch (const std::invalid_argument& e) {

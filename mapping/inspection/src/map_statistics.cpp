@@ -184,6 +184,20 @@ std::string MapStatistics::MissionReport(const MissionStatistics& m) {
   return out.str();
 }
 
+std::vector<mapstore::MissionId> ResolveMissions(const VIMap& map,
+                                                 const std::string& comma_separated) {
+  std::vector<mapstore::MissionId> missions;
+  std::size_t begin = 0;
+  while (begin <= comma_separated.size()) {
+    std::size_t end = comma_separated.find(',', begin);
+    if (end == std::string::npos) end = comma_separated.size();
+    const std::string word = comma_separated.substr(begin, end - begin);
+    if (!word.empty()) missions.push_back(ResolveMission(map, word));
+    begin = end + 1;
+  }
+  return missions;
+}
+
 mapstore::MissionId ResolveMission(const VIMap& map, const std::string& text) {
   std::vector<mapstore::MissionId> matches;
   for (const mapstore::MissionId& id : map.mission_ids()) {

@@ -390,6 +390,21 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     }
   }
 
+  // Re-integrates the IMU edges whose start bias moved far from the linearization point.
+  auto reintegrate = [&]() {
+    std::size_t n = 0;
+    for (std::size_t k = 0; k < preintegrations.size(); ++k) {
+      const double* sb = speed_biases.at(preintegration_from[k]);
+      const Eigen::Vector3d bg(sb[3], sb[4], sb[5]), ba(sb[6], sb[7], sb[8]);
+      if (preintegrations[k]->NeedsReintegration(bg, ba, options.preintegration)) {
+        preintegrations[k]->Reintegrate(bg, ba);
+        ++n;
+      }
+    }
+    summary.reintegrations += n;
+    return n;
+  };
+
   // ---- IMU states first: velocities and biases that fit the current trajectory (poses and
   // landmarks held), re-integrating as the biases settle. A map whose biases are far off (zero
   // where the gyroscope has 0.08 rad/s, as a map built from given poses) would otherwise start
@@ -422,16 +437,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
       init_solver.logging_type = ceres::SILENT;
       ceres::Solver::Summary init_summary;
       ceres::Solve(init_solver, &init, &init_summary);
-      std::size_t reintegrated = 0;
-      for (std::size_t k = 0; k < preintegrations.size(); ++k) {
-        const double* sb = speed_biases.at(preintegration_from[k]);
-        const Eigen::Vector3d bg(sb[3], sb[4], sb[5]), ba(sb[6], sb[7], sb[8]);
-        if (preintegrations[k]->NeedsReintegration(bg, ba, options.preintegration)) {
-          preintegrations[k]->Reintegrate(bg, ba);
-          ++reintegrated;
-        }
-      }
-      summary.reintegrations += reintegrated;
+      const std::size_t reintegrated = reintegrate();
       if (reintegrated == 0) break;
     }
   }
@@ -502,17 +508,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     summary.termination =
         std::string(ceres::TerminationTypeToString(round.termination_type)) + ": " + round.message;
 
-    // Re-integrate the IMU edges whose start bias moved far from the linearization point.
-    std::size_t reintegrated = 0;
-    for (std::size_t k = 0; k < preintegrations.size(); ++k) {
-      const double* sb = speed_biases.at(preintegration_from[k]);
-      const Eigen::Vector3d bg(sb[3], sb[4], sb[5]), ba(sb[6], sb[7], sb[8]);
-      if (preintegrations[k]->NeedsReintegration(bg, ba, options.preintegration)) {
-        preintegrations[k]->Reintegrate(bg, ba);
-        ++reintegrated;
-      }
-    }
-    summary.reintegrations += reintegrated;
+    const std::size_t reintegrated = reintegrate();
     // Outlier rejection: observations behind the camera or too far off; a landmark left with
     // fewer than two observations loses them all (its depth would be unconstrained).
     // Only once the round has settled (cost down by less than 10 %, or converged): from a

@@ -56,6 +56,10 @@ MapStatistics ComputeMapStatistics(const mapstore::VIMap& map);
 // A mission by full 32-digit hex id, unique hex prefix (at least 4 digits), or exact name.
 // Throws std::invalid_argument naming what was asked and the missions there are.
 mapstore::MissionId ResolveMission(const mapstore::VIMap& map, const std::string& id_prefix_or_name);
+// A comma-separated list of the above (the console's --map_mission); empty text: no mission
+// (commands read it as "every mission").
+std::vector<mapstore::MissionId> ResolveMissions(const mapstore::VIMap& map,
+                                                 const std::string& comma_separated);
 
 // Total size of the regular files under `folder` [bytes] (0 if it does not exist).
 uint64_t FolderSizeBytes(const std::string& folder);
