@@ -3,6 +3,7 @@
 #include <catch2/catch.hpp>
 
 #include "console_plugins/test_maps.h"
+#include "vilma/core/asl_dataset.h"
 #include "vilma/mapstore/consistency.h"
 
 namespace vilma::console {
@@ -65,6 +66,66 @@ TEST_CASE("lc: a gap longer than the session finds nothing; bad input changes no
   CHECK(r.outcome == CommandOutcome::kFailed);
   CHECK_THAT(r.message, Catch::Contains("no good landmarks"));
   CHECK(f.map().num_landmarks() == landmarks);
+}
+
+}  // namespace
+}  // namespace vilma::console
+
+namespace vilma::console {
+namespace {
+
+// T_W_M of a mission from its dataset's ground truth at the first vertex: T_W_I(gt) T_M_I^-1.
+Transformation WorldFromMission(const mapstore::VIMap& map, const mapstore::MissionId& m,
+                                const std::string& dataset) {
+  const auto ds = AslDataset::Open(dataset);
+  const auto& v = map.vertex(map.VertexChain(m).front());
+  const GroundTruthState* best = nullptr;
+  for (const auto& g : ds.ground_truth()) {
+    if (best == nullptr || std::llabs(g.t_ns - v.t_ns) < std::llabs(best->t_ns - v.t_ns)) best = &g;
+  }
+  REQUIRE(best != nullptr);
+  return Transformation(best->q_W_I, best->p_W_I) * v.T_M_I.inverse();
+}
+
+TEST_CASE("aam places the second session where the ground truth says; look-alikes stay unknown") {
+  const auto& maps = test::TestMaps();
+  {
+    Fixture f;
+    REQUIRE(f.Run("load_merge_all_maps " + maps.maps_folder).ok());
+    const auto m0 = f.map().mission_ids()[0], m1 = f.map().mission_ids()[1];
+    const Transformation expected = WorldFromMission(f.map(), m0, maps.session0_dataset).inverse() *
+                                     WorldFromMission(f.map(), m1, maps.session1_dataset);
+    REQUIRE(f.Run("aam").ok());
+    INFO(f.out.str());
+    CHECK(f.map().mission(m0).baseframe_known);
+    REQUIRE(f.map().mission(m1).baseframe_known);
+    const Transformation& got = f.map().mission(m1).T_G_M;
+    CHECK((got.translation() - expected.translation()).norm() < 0.1);
+    CHECK(AngleBetween(got.rotation(), expected.rotation()) * 180.0 / M_PI < 1.5);
+    // Both anchored: lc across the missions finds loops and makes cross-mission landmarks.
+    f.out.str("");
+    REQUIRE(f.Run("lc").ok());
+    CHECK_THAT(f.out.str(), !Catch::Contains(" 0 loops verified"));
+    REQUIRE(f.Run("cmc").ok());
+  }
+  {
+    Fixture f;
+    REQUIRE(f.Run("load_merge_all_maps " + maps.maps_folder).ok());
+    // Session 1 with scrambled descriptors: a place that looks like nothing known.
+    auto& map = *f.session.maps().Get(f.session.maps().selected()).map;
+    const auto m1 = map.mission_ids()[1];
+    uint8_t x = 17;
+    for (const auto& id : map.vertex_ids(m1)) {
+      for (auto& frame : map.vertex(id).frames) {
+        for (auto& b : frame.descriptors) b = x = static_cast<uint8_t>(x * 73 + 41);
+      }
+    }
+    REQUIRE(f.Run("aam").ok());
+    CHECK_FALSE(f.map().mission(m1).baseframe_known);
+    CHECK_THAT(f.out.str(), Catch::Contains("NOT anchored"));
+    const CommandResult r = f.Run("aam --aam_min_support=0");
+    CHECK(r.outcome == CommandOutcome::kFailed);
+  }
 }
 
 }  // namespace

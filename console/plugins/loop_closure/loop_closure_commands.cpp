@@ -1,6 +1,8 @@
-// loopclosure_all_missions / lc (mapping/loop_closure, docs/loop-closure.md).
+// loopclosure_all_missions / lc and anchor_all_missions / aam (mapping/loop_closure,
+// docs/loop-closure.md).
 #include "vilma/console/command_registry.h"
 #include "vilma/mapping/inspection/map_statistics.h"
+#include "vilma/mapping/loop_closure/anchoring.h"
 #include "vilma/mapping/loop_closure/loop_closure.h"
 
 namespace vilma::console {
@@ -9,6 +11,7 @@ namespace {
 struct LcOptions : mapping::LoopClosureOptions {
   std::string map_mission;  // "" = every mission
 };
+using AamOptions = mapping::AnchoringOptions;
 
 void Register(CommandRegistry* registry) {
   registry->Add(
@@ -35,6 +38,30 @@ void Register(CommandRegistry* registry) {
                 mapping::ResolveMissions(c.map(), o.map_mission);
             try {
               c.out() << mapping::CloseLoops(o, &c.map(), missions, c.progress()).Report();
+            } catch (const std::invalid_argument& e) {
+              throw CommandError(e.what());
+            }
+          }));
+
+  registry->Add(
+      Command<AamOptions>("anchor_all_missions")
+          .Alias("aam")
+          .Group("loop closure")
+          .Summary("place every mission with an unknown baseframe in G by localizing its "
+                   "vertices against the known missions (consensus); unanchored ones stay "
+                   "unknown")
+          .Access(MapAccess::kModify)
+          .Flag("aam_min_inliers", &AamOptions::aam_min_inliers,
+                "RANSAC inliers of a usable localization")
+          .Flag("aam_min_support", &AamOptions::aam_min_support, "vertices agreeing on T_G_M")
+          .Flag("aam_consensus_m", &AamOptions::aam_consensus_m, "agreement in position [m]")
+          .Flag("aam_consensus_deg", &AamOptions::aam_consensus_deg,
+                "agreement in rotation [deg]")
+          .Flag("aam_every_nth_vertex", &AamOptions::aam_every_nth_vertex,
+                "query every n-th vertex")
+          .Run([](CommandContext& c, const AamOptions& o) {
+            try {
+              c.out() << mapping::AnchorAllMissions(o, &c.map(), c.progress()).Report();
             } catch (const std::invalid_argument& e) {
               throw CommandError(e.what());
             }

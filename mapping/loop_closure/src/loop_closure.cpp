@@ -94,8 +94,12 @@ LoopClosureSummary CloseLoops(const LoopClosureOptions& options, VIMap* map,
         throw std::invalid_argument("mission " + m.Hex() +
                                     ": no good landmarks to close loops with (run elq?)");
       }
+      // Covisibility is filtered after the query's own recent track is dropped (below): before,
+      // the largest covisible component would often be that track.
+      localizer::LocalizerOptions without_covisibility = options.localizer;
+      without_covisibility.matching.covisibility_filter = false;
       it = databases
-               .emplace(group, std::make_shared<localizer::Localizer>(db, options.localizer))
+               .emplace(group, std::make_shared<localizer::Localizer>(db, without_covisibility))
                .first;
     }
     return it->second;
@@ -142,6 +146,13 @@ LoopClosureSummary CloseLoops(const LoopClosureOptions& options, VIMap* map,
             old = w.mission_id != m || std::llabs(w.t_ns - t_v) > gap_ns;
           }
           if (old) kept.push_back(match);
+        }
+        if (options.localizer.matching.covisibility_filter && !kept.empty()) {
+          std::vector<localizer::Match2D3D> covisible;
+          for (int k : localizer::LargestCovisibleComponent(lmap, kept)) {
+            covisible.push_back(kept[static_cast<std::size_t>(k)]);
+          }
+          kept.swap(covisible);
         }
         if (static_cast<int>(kept.size()) < options.lc_min_inliers) {
           ++s.rejected[static_cast<int>(LoopRejection::kNoMatches)];
