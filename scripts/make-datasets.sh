@@ -21,6 +21,8 @@ SETS=(
   "street     street     1    0       120     0"
   "room-s2    room       1    1       60      90"
   "room-s3    room       1    2       60      90"
+  "room-s4    room       1    3       60      90"
+  "room-s5    room       1    4       60      90"
   "hall-s2    hall       1    1       60      120"
   "hall-s3    hall       1    2       60      120"
   "street-s2  street     1    1       60      120"

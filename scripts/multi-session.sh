@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# The paper's multi-session use case on simulation (docs/loop-closure.md "Multi-session"):
+# four sessions of the room (room-easy, room-s2..s4: other paths revisiting the first, other
+# lighting), each mapped by vilma-estimatord from its LCM log (--save-map), then one console
+# script — load_merge_all_maps; aam; lc; rtl; optvi; save — then a fifth session (room-s5)
+# localized against the merged map in the daemon (LOC mode).
+# Figures: every mission anchored; the ATE of ALL vertices of all missions with ONE alignment
+# (posyaw of mission 0's vertices to its ground truth, applied to every mission: `vilma eval
+# --align-from`); cross-mission landmarks; the fifth session's global RMSE with the same
+# alignment and its recall within 0.5 m.
+#
+# Usage: scripts/multi-session.sh        (VILMA_BUILD_DIR, VILMA_DATASETS, BENCH_WORK as
+#                                          bench-optvi.sh; default work ~/.cache/vilma/multi-session)
+set -euo pipefail
+
+repo_dir=$(cd "$(dirname "$0")/.." && pwd)
+build_dir=${VILMA_BUILD_DIR:-$repo_dir/build}
+cache=${VILMA_CACHE:-$HOME/.cache/vilma}
+datasets=${VILMA_DATASETS:-$cache/datasets}
+work=${BENCH_WORK:-$cache/multi-session}
+bin=$build_dir/bin
+mkdir -p "$work"
+# shellcheck source=lib/vio-map.sh
+. "$repo_dir/scripts/lib/vio-map.sh"
+sessions=(room-easy room-s2 room-s3 room-s4)
+query=room-s5
+VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" \
+  --only "room-easy,room-s2,room-s3,room-s4,$query" >&2
+
+# 1. Each session mapped by the daemon (VIO poses, unknown baseframes).
+rm -rf "$work/maps" && mkdir -p "$work/maps"
+for s in "${sessions[@]}"; do
+  map=$(vio_map "$s")
+  ln -s "$map" "$work/maps/$s"
+done
+
+# 2. One console script over the merged map.
+rm -rf "$work/merged" "$work/traj" && mkdir -p "$work/traj"
+start=$(date +%s.%N)
+/usr/bin/time -f "%M" -o "$work/console.rss" "$bin/vilma" console -c "load_merge_all_maps $work/maps; \
+  aam; lc; rtl; optvi; ms; print_baseframes; \
+  ettc --out=$work/traj --format=asl --frame=G; cmc; save --out=$work/merged" \
+  > "$work/console.out" 2>&1 || { cat "$work/console.out" >&2; exit 1; }
+console_s=$(awk -v a="$start" -v b="$(date +%s.%N)" 'BEGIN { printf "%.0f", b - a }')
+
+# 3. ONE alignment for the whole map: mission 0 (room-easy, the first loaded) to its ground truth.
+mapfile -t trajectories < <(ls "$work/traj"/*)
+order=$(grep -o '^[0-9a-f]\{8\} ' "$work/console.out" | head -4 | tr -d ' ')
+gt_of() { echo "$datasets/$1/mav0/state_groundtruth_estimate0/data.csv"; }
+first=$(ls "$work/traj"/*"$(echo "$order" | head -1)"* 2> /dev/null || echo "${trajectories[0]}")
+"$bin/vilma" eval --gt "$(gt_of room-easy)" --est "$first" --align posyaw \
+  --json "$work/alignment.json" > "$work/eval-0.txt"
+echo "| mission (session) | vertices | ATE with the map's one alignment [m] |"
+echo "|---|---:|---:|"
+all_sq=0 all_n=0
+i=0
+for s in "${sessions[@]}"; do
+  id=$(echo "$order" | sed -n "$((i + 1))p")
+  traj=$(ls "$work/traj"/*"$id"* 2> /dev/null || true)
+  if [ -z "$traj" ]; then echo "| $s | - | (no trajectory) |"; i=$((i + 1)); continue; fi
+  "$bin/vilma" eval --gt "$(gt_of "$s")" --est "$traj" --align-from "$work/alignment.json" \
+    > "$work/eval-$s.txt"
+  n=$(grep -vc '^#' "$traj")
+  r=$(ate_rmse "$work/eval-$s.txt")
+  echo "| $id ($s) | $n | $r |"
+  all_sq=$(awk -v a="$all_sq" -v r="$r" -v n="$n" 'BEGIN { print a + r * r * n }')
+  all_n=$((all_n + n))
+  i=$((i + 1))
+done
+echo "| all missions together | $all_n | $(awk -v a="$all_sq" -v n="$all_n" 'BEGIN { printf "%.4f", sqrt(a / n) }') |"
+echo
+grep -E '^aam:|^  mission .* (anchored|NOT)|^lc:|^optvi:|cross-mission' "$work/console.out" | sed 's/^/    /'
+echo "    console: $console_s s, peak RSS $(awk -v k="$(cat "$work/console.rss")" 'BEGIN { printf "%.0f", k / 1024 }') MB"
+
+# 4. The fifth session localized against the merged map.
+"$bin/vilma-replay" "$datasets/$query" --to-log "$work/$query.lcmlog" --quiet
+"$bin/vilma-estimatord" --rig "$datasets/$query/rig.yaml" --input-log "$work/$query.lcmlog" \
+  --localization-map "$work/merged" --lcm-url "file://$work/$query-loc.lcm?mode=w" \
+  > "$work/$query-loc.out" 2>&1
+"$bin/vilma-lcm-poses" "$work/$query-loc.lcm" --out "$work/$query-pose.txt" > /dev/null
+"$bin/vilma-lcm-poses" "$work/$query-loc.lcm" --channel VILMA_LOC --out "$work/$query-loc.txt" \
+  > /dev/null 2>&1 || true
+"$bin/vilma" eval --gt "$(gt_of "$query")" --est "$work/$query-pose.txt" \
+  --align-from "$work/alignment.json" > "$work/$query-pose.eval"
+"$bin/vilma" eval --gt "$(gt_of "$query")" --est "$work/$query-loc.txt" \
+  --align-from "$work/alignment.json" --within 0.5 > "$work/$query-loc.eval"
+echo
+echo "fifth session ($query) in LOC mode: global RMSE $(ate_rmse "$work/$query-pose.eval") m (the map's alignment); $(grep '^within' "$work/$query-loc.eval")"
