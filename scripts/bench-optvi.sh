@@ -14,7 +14,8 @@
 #
 # Usage: scripts/bench-optvi.sh [SET ...]     (default: room-easy hall street)
 #   VILMA_BUILD_DIR, VILMA_DATASETS, BENCH_WORK (default ${VILMA_CACHE:-~/.cache/vilma}/bench-optvi),
-#   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2.
+#   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2,
+#   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster).
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -88,42 +89,84 @@ for set in "${sets[@]}"; do
   done
 done
 
-[ "${BENCH_REAL:-1}" = 0 ] && exit 0
 kf=$shared/euroc_V1_01_keyframes
-[ -d "$kf" ] || { echo "bench-optvi: $kf missing: no real-data table" >&2; exit 0; }
+if [ "${BENCH_REAL:-1}" = 0 ]; then
+  :
+elif [ ! -d "$kf" ]; then
+  echo "bench-optvi: $kf missing: no real-data table" >&2
+else
+  echo
+  echo "### Real: EuRoC V1_01, 100 stereo keyframes, real IMU between them"
+  echo
+  echo "| start | map | ATE [m] before -> after | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | reprojection RMSE [px] | good landmarks after | console [s] |"
+  echo "|---|---|---|---|---|---|---|---|---|"
+  for start in perturbed gt; do
+    map=$work/euroc-kf-$start
+    if stale "$map/manifest.yaml" "$bin/vilma" || [ ! -d "$map" ]; then
+      rm -rf "$map"
+      args=()
+      [ "$start" = perturbed ] && args=(--perturb 0.2,3 --seed 1)
+      "$bin/vilma" map-from-poses "$kf" --out "$map" "${args[@]}" > "$map.out" 2>&1 ||
+        { cat "$map.out" >&2; exit 1; }
+    fi
+    out=$work/euroc-kf-$start-optvi
+    if [ "$start" = perturbed ]; then
+      recipe="optvi --evaluate_quality=false; rtl; optvi --evaluate_quality=false; rtl; \
+        optvi --evaluate_quality=false; rtl; optvi"
+      label="0.2 m / 3 deg off, optvi; rtl x3; optvi"
+    else
+      recipe="optvi"
+      label="ground truth, optvi"
+    fi
+    start_s=$(date +%s.%N)
+    console "$out.console" "load $map; set elq_min_observers 2; eval_map $kf --json=$out.before.json; \
+      $recipe; eval_map $kf --json=$out.after.json; cmc"
+    seconds=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+    b=$out.before.json a=$out.after.json
+    printf '| %s | map-from-poses | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s | %s |\n' \
+      "$label" "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
+      "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
+      "$(fmt "$(field "$b" gyro_bias_error median)" 1 5)" "$(fmt "$(field "$a" gyro_bias_error median)" 1 5)" \
+      "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
+      "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
+      "$(field "$a" good_landmarks)" "$seconds"
+  done
+fi
+
+# 3. Speed against COLMAP's bundle_adjuster (Debian colmap 3.8) on the same visual-only problem:
+#    the room's daemon map exported with export_colmap (OPENCV cameras, intrinsics held on both
+#    sides), 30 iterations at most each. COLMAP prints its cost as sqrt(cost / residuals) =
+#    (RMSE per observation) / 2; both are shown as RMSE per observation [px].
+[ "${BENCH_COLMAP:-1}" = 0 ] && exit 0
+command -v colmap > /dev/null || { echo "bench-optvi: colmap missing: no COLMAP table" >&2; exit 0; }
+map=$(vio_map room-easy)
+cmp=$work/colmap-compare
+rm -rf "$cmp" && mkdir -p "$cmp/ba"
+"$bin/vilma" console -c "load $map; export_colmap --out=$cmp/model --export_images=false" \
+  > "$cmp/export.out" 2>&1
+/usr/bin/time -f "%e %M" -o "$cmp/colmap.time" colmap bundle_adjuster --input_path "$cmp/model" \
+  --output_path "$cmp/ba" --BundleAdjustment.refine_focal_length 0 \
+  --BundleAdjustment.refine_extra_params 0 --BundleAdjustment.max_num_iterations 30 \
+  > "$cmp/colmap.out" 2>&1
+console "$cmp/optv.console" "load $map; optv --ba_outlier_rejection=false --evaluate_quality=false"
+read -r colmap_s colmap_kb < "$cmp/colmap.time"
+colmap_iterations=$(awk '/Iterations :/ { print $3 }' "$cmp/colmap.out" | tail -1)
+colmap_initial=$(awk '/Initial cost :/ { print 2 * $4 }' "$cmp/colmap.out" | tail -1)
+colmap_final=$(awk '/Final cost :/ { print 2 * $4 }' "$cmp/colmap.out" | tail -1)
+optv_line=$(grep '^optv:' "$cmp/optv.console")
+optv_s=$(echo "$optv_line" | awk '{ print $(NF - 1) }')
+optv_before=$(echo "$optv_line" | grep -o 'RMSE [0-9.]* -> [0-9.]*' | awk '{ print $2 }')
+optv_after=$(echo "$optv_line" | grep -o 'RMSE [0-9.]* -> [0-9.]*' | awk '{ print $4 }')
+optv_iterations=$(echo "$optv_line" | grep -o 'in [0-9]* iterations' | awk '{ print $2 }')
 echo
-echo "### Real: EuRoC V1_01, 100 stereo keyframes, real IMU between them"
+echo "### Visual-only bundle adjustment: vilma optv vs COLMAP bundle_adjuster (room, 1,796 images, 12,799 points, 149,410 observations)"
 echo
-echo "| start | map | ATE [m] before -> after | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | reprojection RMSE [px] | good landmarks after | console [s] |"
-echo "|---|---|---|---|---|---|---|---|---|"
-for start in perturbed gt; do
-  map=$work/euroc-kf-$start
-  if stale "$map/manifest.yaml" "$bin/vilma" || [ ! -d "$map" ]; then
-    rm -rf "$map"
-    args=()
-    [ "$start" = perturbed ] && args=(--perturb 0.2,3 --seed 1)
-    "$bin/vilma" map-from-poses "$kf" --out "$map" "${args[@]}" > "$map.out" 2>&1 ||
-      { cat "$map.out" >&2; exit 1; }
-  fi
-  out=$work/euroc-kf-$start-optvi
-  if [ "$start" = perturbed ]; then
-    recipe="optvi --evaluate_quality=false; rtl; optvi --evaluate_quality=false; rtl; \
-      optvi --evaluate_quality=false; rtl; optvi"
-    label="0.2 m / 3 deg off, optvi; rtl x3; optvi"
-  else
-    recipe="optvi"
-    label="ground truth, optvi"
-  fi
-  start_s=$(date +%s.%N)
-  console "$out.console" "load $map; set elq_min_observers 2; eval_map $kf --json=$out.before.json; \
-    $recipe; eval_map $kf --json=$out.after.json; cmc"
-  seconds=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
-  b=$out.before.json a=$out.after.json
-  printf '| %s | map-from-poses | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s -> %s | %s | %s |\n' \
-    "$label" "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
-    "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
-    "$(fmt "$(field "$b" gyro_bias_error median)" 1 5)" "$(fmt "$(field "$a" gyro_bias_error median)" 1 5)" \
-    "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
-    "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
-    "$(field "$a" good_landmarks)" "$seconds"
-done
+echo "| solver | iterations | wall [s] | s per iteration | RMSE per observation before -> after [px] | peak RSS [MB] |"
+echo "|---|---:|---:|---:|---|---:|"
+printf '| COLMAP 3.8 bundle_adjuster (2 threads) | %s | %s | %s | %s -> %s | %s |\n' "$colmap_iterations" \
+  "$colmap_s" "$(awk -v s="$colmap_s" -v n="$colmap_iterations" 'BEGIN { printf "%.2f", s / n }')" \
+  "$(fmt "$colmap_initial" 1 3)" "$(fmt "$colmap_final" 1 3)" "$(awk -v k="$colmap_kb" 'BEGIN { printf "%.0f", k / 1024 }')"
+printf '| vilma optv (1 thread) | %s | %s | %s | %s -> %s | %s |\n' "$optv_iterations" \
+  "$(fmt "$optv_s" 1 1)" "$(awk -v s="$optv_s" -v n="$optv_iterations" 'BEGIN { printf "%.2f", s / n }')" \
+  "$(fmt "$optv_before" 1 3)" "$(fmt "$optv_after" 1 3)" \
+  "$(awk -v k="$(cat "$cmp/optv.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')"
