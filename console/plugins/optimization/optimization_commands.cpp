@@ -17,6 +17,8 @@ Command<O> OptimizationFlags(Command<O> c) {
       c.Flag("ba_num_iterations", &O::ba_num_iterations, "solver iterations in all")
           .Flag("ba_iterations_per_round", &O::ba_iterations_per_round,
                 "iterations between re-integration / outlier rejection / progress")
+          .Flag("ba_function_tolerance", &O::ba_function_tolerance,
+                "converged when the relative cost change is below this")
           .Flag("ba_robust_loss", &O::ba_robust_loss, "huber, cauchy or none")
           .Flag("ba_robust_loss_scale_px", &O::ba_robust_loss_scale_px,
                 "where the robust loss starts [px]")

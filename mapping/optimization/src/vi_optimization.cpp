@@ -32,6 +32,9 @@ std::string ViOptimizationOptions::Validate() const {
   if (!visual && !inertial) return "visual, inertial: expected at least one kind of term";
   if (ba_num_iterations < 1) return "ba_num_iterations: expected >= 1";
   if (ba_iterations_per_round < 1) return "ba_iterations_per_round: expected >= 1";
+  if (!(ba_function_tolerance > 0 && ba_function_tolerance < 1)) {
+    return "ba_function_tolerance: expected in (0, 1)";
+  }
   if (ba_robust_loss != "huber" && ba_robust_loss != "cauchy" && ba_robust_loss != "none") {
     return "ba_robust_loss: expected huber, cauchy or none";
   }
@@ -448,6 +451,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   solver.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
   solver.num_threads = options.ba_num_threads;
   solver.jacobi_scaling = true;
+  solver.function_tolerance = options.ba_function_tolerance;
   solver.logging_type = ceres::SILENT;
   const bool schur = options.ba_linear_solver != "sparse_normal_cholesky";
   if (options.ba_linear_solver == "sparse_schur") solver.linear_solver_type = ceres::SPARSE_SCHUR;

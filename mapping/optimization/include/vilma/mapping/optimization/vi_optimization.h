@@ -40,6 +40,8 @@ struct ViOptimizationOptions {
   bool inertial = true;  // IMU terms (false: optv)
   int ba_num_iterations = 30;       // solver iterations in all rounds together
   int ba_iterations_per_round = 3;  // then re-integration, outlier rejection, progress
+  // Stop when a round's relative cost change falls below this (Ceres' function_tolerance).
+  double ba_function_tolerance = 1e-6;
   std::string ba_robust_loss = "huber";  // huber, cauchy or none
   double ba_robust_loss_scale_px = 3.0;  // where the loss turns robust [px]
   double keypoint_sigma_px = 1.0;        // keypoint noise: whitens the reprojection [px]
