@@ -17,6 +17,7 @@
 #include "vilma/mapping/optimization/inertial_residual.h"
 #include "vilma/mapping/optimization/pose_manifold.h"
 #include "vilma/mapping/optimization/reprojection_residual.h"
+#include "vi_problem_util.h"
 
 namespace vilma::mapping {
 
@@ -28,116 +29,13 @@ using mapstore::MissionId;
 using mapstore::VertexId;
 using mapstore::VIMap;
 
-std::string ViOptimizationOptions::Validate() const {
-  if (!visual && !inertial) return "visual, inertial: expected at least one kind of term";
-  if (ba_num_iterations < 1) return "ba_num_iterations: expected >= 1";
-  if (ba_iterations_per_round < 1) return "ba_iterations_per_round: expected >= 1";
-  if (!(ba_function_tolerance > 0 && ba_function_tolerance < 1)) {
-    return "ba_function_tolerance: expected in (0, 1)";
-  }
-  if (ba_robust_loss != "huber" && ba_robust_loss != "cauchy" && ba_robust_loss != "none") {
-    return "ba_robust_loss: expected huber, cauchy or none";
-  }
-  if (!(ba_robust_loss_scale_px > 0)) return "ba_robust_loss_scale_px: expected > 0";
-  if (!(keypoint_sigma_px > 0)) return "keypoint_sigma_px: expected > 0";
-  if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
-  if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
-  if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&
-      ba_linear_solver != "sparse_normal_cholesky" && ba_linear_solver != "dense_schur") {
-    return "ba_linear_solver: expected sparse_schur, iterative_schur, sparse_normal_cholesky or "
-           "dense_schur";
-  }
-  std::string problem = preintegration.Validate();
-  if (!problem.empty()) return "preintegration." + problem;
-  problem = quality.Validate();
-  return problem.empty() ? "" : "quality." + problem;
-}
-
-namespace {
-
-double SecondsSince(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-// One reprojection term, for outlier rejection and the error figures.
-struct Observation {
-  LandmarkId landmark;
-  LandmarkObservation observation;
-  const Camera* camera;
-  Eigen::Vector2d uv;
-  double* pose_M_I;
-  double* p_G;
-  double* pose_G_M;
-  double* pose_I_C;
-  ceres::ResidualBlockId residual = nullptr;
-};
-
-// Pixel error of an observation at the current blocks; negative when behind the camera.
-double PixelError(const Observation& o) {
-  const Transformation T_G_C =
-      BlockToPose(o.pose_G_M) * BlockToPose(o.pose_M_I) * BlockToPose(o.pose_I_C);
-  const Eigen::Vector3d p_C = T_G_C.inverse() * Eigen::Map<const Eigen::Vector3d>(o.p_G);
-  Eigen::Vector2d uv;
-  const Camera::ProjectionResult r = o.camera->Project(p_C, &uv);
-  if (r == Camera::ProjectionResult::kBehindCamera || r == Camera::ProjectionResult::kNotFinite ||
-      !uv.allFinite()) {
-    return -1.0;
-  }
-  return (uv - o.uv).norm();
-}
-
-double RmsePx(const std::vector<Observation>& observations) {
-  double sum = 0.0;
-  std::size_t n = 0;
-  for (const Observation& o : observations) {
-    if (o.residual == nullptr) continue;
-    const double e = PixelError(o);
-    if (e < 0) continue;
-    sum += e * e;
-    ++n;
-  }
-  return n == 0 ? 0.0 : std::sqrt(sum / static_cast<double>(n));
-}
-
-// Union-find over mission indices.
-struct Clusters {
-  std::vector<int> parent;
-  explicit Clusters(std::size_t n) : parent(n) { std::iota(parent.begin(), parent.end(), 0); }
-  int Find(int i) { return parent[i] == i ? i : parent[i] = Find(parent[i]); }
-  void Join(int a, int b) {
-    a = Find(a);
-    b = Find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);  // the older mission is the root
-  }
-};
-
-class CancelCallback : public ceres::IterationCallback {
- public:
-  explicit CancelCallback(ProgressObserver* progress) : progress_(progress) {}
-  ceres::CallbackReturnType operator()(const ceres::IterationSummary& summary) override {
-    radius = summary.trust_region_radius;
-    if (progress_ != nullptr && progress_->CancelRequested()) {
-      cancelled = true;
-      return ceres::SOLVER_ABORT;
-    }
-    return ceres::SOLVER_CONTINUE;
-  }
-  bool cancelled = false;
-  double radius = 1e4;
-
- private:
-  ProgressObserver* progress_;
-};
-
-void CheckFinite(const VIMap& map, const VertexId& id) {
-  const mapstore::Vertex& v = map.vertex(id);
-  if (!v.T_M_I.translation().allFinite() || !v.T_M_I.rotation().coeffs().allFinite() ||
-      !v.v_M.allFinite() || !v.gyro_bias.allFinite() || !v.accel_bias.allFinite()) {
-    throw std::invalid_argument("vertex " + id.Hex() + ": a state that is not finite (NaN/inf)");
-  }
-}
-
-}  // namespace
+using vi_problem::CancelCallback;
+using vi_problem::CheckFinite;
+using vi_problem::Clusters;
+using vi_problem::Observation;
+using vi_problem::PixelError;
+using vi_problem::RmsePx;
+using vi_problem::SecondsSince;
 
 ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap* map,
                                     const std::vector<MissionId>& missions,
@@ -612,34 +510,6 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   }
   summary.total_seconds = SecondsSince(start);
   return summary;
-}
-
-std::string ViOptimizationSummary::BriefReport() const {
-  std::ostringstream out;
-  out << command << ": cost " << initial_cost << " -> " << final_cost << " in " << iterations
-      << " iterations (" << rounds << " rounds), reprojection RMSE " << reprojection_rmse_before_px
-      << " -> " << reprojection_rmse_after_px << " px, " << total_seconds << " s";
-  return out.str();
-}
-
-std::string ViOptimizationSummary::FullReport() const {
-  std::ostringstream out;
-  out << BriefReport() << "\n"
-      << "  residuals: reprojection " << reprojection_residuals << ", inertial "
-      << inertial_residuals << "; vertices " << vertices << ", landmarks " << landmarks
-      << ", clusters " << clusters << "\n"
-      << "  solver: " << solve_seconds << " s, "
-      << (iterations > 0 ? 1000.0 * solve_seconds / iterations : 0.0) << " ms per iteration; "
-      << termination << "\n"
-      << "  outlier observations removed " << outlier_observations << ", IMU re-integrations "
-      << reintegrations << "; good landmarks " << good_landmarks_before << " -> "
-      << good_landmarks_after << "\n";
-  for (const MissionChange& c : missions) {
-    out << "  mission " << c.mission.Hex().substr(0, 8) << ": " << c.vertices
-        << " vertices moved mean " << c.mean_shift_m << " m (max " << c.max_shift_m << "), "
-        << c.mean_rotation_deg << " deg (max " << c.max_rotation_deg << ")\n";
-  }
-  return out.str();
 }
 
 }  // namespace vilma::mapping

@@ -1,0 +1,63 @@
+// ViOptimizationOptions::Validate and the summary's reports (vi_optimization.h).
+#include <sstream>
+
+#include "vilma/mapping/optimization/vi_optimization.h"
+
+namespace vilma::mapping {
+
+std::string ViOptimizationOptions::Validate() const {
+  if (!visual && !inertial) return "visual, inertial: expected at least one kind of term";
+  if (ba_num_iterations < 1) return "ba_num_iterations: expected >= 1";
+  if (ba_iterations_per_round < 1) return "ba_iterations_per_round: expected >= 1";
+  if (!(ba_function_tolerance > 0 && ba_function_tolerance < 1)) {
+    return "ba_function_tolerance: expected in (0, 1)";
+  }
+  if (ba_robust_loss != "huber" && ba_robust_loss != "cauchy" && ba_robust_loss != "none") {
+    return "ba_robust_loss: expected huber, cauchy or none";
+  }
+  if (!(ba_robust_loss_scale_px > 0)) return "ba_robust_loss_scale_px: expected > 0";
+  if (!(keypoint_sigma_px > 0)) return "keypoint_sigma_px: expected > 0";
+  if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
+  if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
+  if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&
+      ba_linear_solver != "sparse_normal_cholesky" && ba_linear_solver != "dense_schur") {
+    return "ba_linear_solver: expected sparse_schur, iterative_schur, sparse_normal_cholesky or "
+           "dense_schur";
+  }
+  std::string problem = preintegration.Validate();
+  if (!problem.empty()) return "preintegration." + problem;
+  problem = quality.Validate();
+  return problem.empty() ? "" : "quality." + problem;
+}
+
+
+std::string ViOptimizationSummary::BriefReport() const {
+  std::ostringstream out;
+  out << command << ": cost " << initial_cost << " -> " << final_cost << " in " << iterations
+      << " iterations (" << rounds << " rounds), reprojection RMSE " << reprojection_rmse_before_px
+      << " -> " << reprojection_rmse_after_px << " px, " << total_seconds << " s";
+  return out.str();
+}
+
+std::string ViOptimizationSummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n"
+      << "  residuals: reprojection " << reprojection_residuals << ", inertial "
+      << inertial_residuals << "; vertices " << vertices << ", landmarks " << landmarks
+      << ", clusters " << clusters << "\n"
+      << "  solver: " << solve_seconds << " s, "
+      << (iterations > 0 ? 1000.0 * solve_seconds / iterations : 0.0) << " ms per iteration; "
+      << termination << "\n"
+      << "  outlier observations removed " << outlier_observations << ", IMU re-integrations "
+      << reintegrations << "; good landmarks " << good_landmarks_before << " -> "
+      << good_landmarks_after << "\n";
+  for (const MissionChange& c : missions) {
+    out << "  mission " << c.mission.Hex().substr(0, 8) << ": " << c.vertices
+        << " vertices moved mean " << c.mean_shift_m << " m (max " << c.max_shift_m << "), "
+        << c.mean_rotation_deg << " deg (max " << c.max_rotation_deg << ")\n";
+  }
+  return out.str();
+}
+
+
+}  // namespace vilma::mapping

@@ -1,0 +1,63 @@
+#include "vi_problem_util.h"
+
+#include <cmath>
+#include <stdexcept>
+
+#include "vilma/mapping/optimization/pose_manifold.h"
+
+namespace vilma::mapping::vi_problem {
+
+double SecondsSince(std::chrono::steady_clock::time_point start) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+double PixelError(const Observation& o) {
+  const Transformation T_G_C =
+      BlockToPose(o.pose_G_M) * BlockToPose(o.pose_M_I) * BlockToPose(o.pose_I_C);
+  const Eigen::Vector3d p_C = T_G_C.inverse() * Eigen::Map<const Eigen::Vector3d>(o.p_G);
+  Eigen::Vector2d uv;
+  const Camera::ProjectionResult r = o.camera->Project(p_C, &uv);
+  if (r == Camera::ProjectionResult::kBehindCamera || r == Camera::ProjectionResult::kNotFinite ||
+      !uv.allFinite()) {
+    return -1.0;
+  }
+  return (uv - o.uv).norm();
+}
+
+double RmsePx(const std::vector<Observation>& observations) {
+  double sum = 0.0;
+  std::size_t n = 0;
+  for (const Observation& o : observations) {
+    if (o.residual == nullptr) continue;
+    const double e = PixelError(o);
+    if (e < 0) continue;
+    sum += e * e;
+    ++n;
+  }
+  return n == 0 ? 0.0 : std::sqrt(sum / static_cast<double>(n));
+}
+
+void Clusters::Join(int a, int b) {
+  a = Find(a);
+  b = Find(b);
+  if (a != b) parent[std::max(a, b)] = std::min(a, b);
+}
+
+ceres::CallbackReturnType CancelCallback::operator()(const ceres::IterationSummary& summary) {
+  radius = summary.trust_region_radius;
+  if (progress_ != nullptr && progress_->CancelRequested()) {
+    cancelled = true;
+    return ceres::SOLVER_ABORT;
+  }
+  return ceres::SOLVER_CONTINUE;
+}
+
+void CheckFinite(const mapstore::VIMap& map, const mapstore::VertexId& id) {
+  const mapstore::Vertex& v = map.vertex(id);
+  if (!v.T_M_I.translation().allFinite() || !v.T_M_I.rotation().coeffs().allFinite() ||
+      !v.v_M.allFinite() || !v.gyro_bias.allFinite() || !v.accel_bias.allFinite()) {
+    throw std::invalid_argument("vertex " + id.Hex() + ": a state that is not finite (NaN/inf)");
+  }
+}
+
+}  // namespace vilma::mapping::vi_problem
