@@ -112,6 +112,11 @@ TEST_CASE("aam places the second session where the ground truth says; look-alike
     REQUIRE(f.Run("lc").ok());
     CHECK_THAT(f.out.str(), !Catch::Contains(" 0 loops verified"));
     REQUIRE(f.Run("cmc").ok());
+    // map_stats counts the landmarks seen from both missions, and the good ones among them.
+    f.out.str("");
+    REQUIRE(f.Run("ms").ok());
+    CHECK_THAT(f.out.str(), Catch::Contains("% of the good ones") &&
+                                !Catch::Contains("cross-mission landmarks 0 "));
   }
   {
     Fixture f;

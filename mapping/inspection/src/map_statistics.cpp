@@ -31,6 +31,7 @@ void Add(MissionStatistics* total, const MissionStatistics& m) {
   total->keypoints_with_landmark += m.keypoints_with_landmark;
   total->keypoints_tracked += m.keypoints_tracked;
   total->landmarks_cross_mission += m.landmarks_cross_mission;
+  total->landmarks_good_cross_mission += m.landmarks_good_cross_mission;
   total->path_length_m += m.path_length_m;
 }
 
@@ -104,6 +105,7 @@ MapStatistics ComputeMapStatistics(const VIMap& map) {
       for (const mapstore::LandmarkObservation& o : l.observations) {
         if (own.count(o.vertex_id) == 0) {
           ++m.landmarks_cross_mission;
+          m.landmarks_good_cross_mission += l.quality == LandmarkQuality::kGood;
           break;
         }
       }
@@ -144,10 +146,16 @@ std::string MapStatistics::ToString() const {
   row("total", std::to_string(missions.size()) + " missions", "", total, total_duration_s);
   const double good_share =
       total.landmarks > 0 ? 100.0 * total.landmarks_good / total.landmarks : 0.0;
+  const double good_cross_share =
+      total.landmarks_good > 0
+          ? 100.0 * static_cast<double>(total.landmarks_good_cross_mission) / total.landmarks_good
+          : 0.0;
   std::snprintf(line, sizeof(line),
-                "good landmarks %.1f %%, cross-mission landmarks %zu, odometry edges %zu, "
-                "pose priors %zu, IMU samples %zu, resources %zu, memory %.1f MB\n",
-                good_share, total.landmarks_cross_mission, total.odometry_edges,
+                "good landmarks %.1f %%, cross-mission landmarks %zu (good %zu: %.1f %% of the "
+                "good ones), odometry edges %zu, pose priors %zu, IMU samples %zu, resources "
+                "%zu, memory %.1f MB\n",
+                good_share, total.landmarks_cross_mission, total.landmarks_good_cross_mission,
+                good_cross_share, total.odometry_edges,
                 total.pose_prior_edges, total.imu_samples, resources, memory_bytes / 1e6);
   out << line;
   return out.str();
@@ -165,7 +173,8 @@ std::string MapStatistics::MissionReport(const MissionStatistics& m) {
       << "  imu samples              " << m.imu_samples << "\n"
       << "  landmarks                " << m.landmarks << " (good " << m.landmarks_good
       << ", bad " << m.landmarks_bad << ", unknown " << m.landmarks_unknown << ")\n"
-      << "  cross-mission landmarks  " << m.landmarks_cross_mission << "\n"
+      << "  cross-mission landmarks  " << m.landmarks_cross_mission << " (good "
+      << m.landmarks_good_cross_mission << ")\n"
       << "  observations             " << m.observations << "\n"
       << "  keypoints                " << m.keypoints << " (with landmark "
       << m.keypoints_with_landmark << ", tracked " << m.keypoints_tracked << ")\n";

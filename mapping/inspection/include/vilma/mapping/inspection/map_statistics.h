@@ -33,6 +33,7 @@ struct MissionStatistics {
   std::size_t keypoints_tracked = 0;  // with a track id
   // Landmarks of this mission observed from at least one vertex of another mission.
   std::size_t landmarks_cross_mission = 0;
+  std::size_t landmarks_good_cross_mission = 0;  // of those, good
   double path_length_m = 0.0;  // along the vertex chain
   int64_t start_t_ns = 0;
   int64_t end_t_ns = 0;
