@@ -48,7 +48,8 @@ TEST_CASE("lc within a mission merges re-observed landmarks and adds loop-closur
   CHECK(landmarks_after[0] == landmarks_after[1]);
   // The report line (progress lines before it depend on timing).
   auto counts = [](const std::string& report) {
-    const std::size_t begin = report.rfind("\nlc: ") == std::string::npos ? 0 : report.rfind("\nlc: ");
+    const std::size_t line = report.rfind("\nlc: ");
+    const std::size_t begin = line == std::string::npos ? 0 : line + 1;
     return report.substr(begin, report.find("edges;", begin) - begin);
   };
   CHECK(counts(reports[0]) == counts(reports[1]));
