@@ -119,7 +119,7 @@ std::string SecondsFromNs(int64_t t_ns) {
       negative ? static_cast<uint64_t>(-(t_ns + 1)) + 1 : static_cast<uint64_t>(t_ns);
   char buf[48];
   std::snprintf(buf, sizeof(buf), "%s%" PRIu64 ".%09" PRIu64, negative ? "-" : "",
-                magnitude / 1000000000ull, magnitude % 1000000000ull);
+                magnitude / uint64_t{1000000000}, magnitude % uint64_t{1000000000});
   return buf;
 }
 
