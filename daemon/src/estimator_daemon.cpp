@@ -28,6 +28,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/sensor_sync.h"
 #include "vilma/core/time.h"
+#include "vilma/daemon/daemon_counters.h"
 #include "vilma/daemon/global_frame_estimator.h"
 #include "vilma/daemon/image_pool.h"
 #include "vilma/daemon/latency_window.h"
@@ -96,168 +97,6 @@ class Wakeup {
 
  private:
   sem_t sem_;
-};
-
-// Counters shared between the stages: each is written by one thread (relaxed atomics) and read
-// by the publisher for VILMA_STATUS.
-enum Counter : int {
-  kImuReceived,
-  kImagesReceived,
-  kMalformedImu,
-  kMalformedImages,
-  kImagesWrongSize,
-  kImagesDroppedPool,
-  kImagesDroppedInputQueue,
-  kImuDroppedInputQueue,  // a bug: the input queue is sized for seconds of IMU
-  kImuDroppedFilterQueue,  // a bug as well
-  kFramesDroppedBusy,      // thinned: the filter was behind (max_frames_in_flight)
-  kFramesDroppedFilterQueue,
-  kFramesWithoutVioCamera,
-  kCameraSilences,
-  kTimeJumpRestarts,
-  kFramesFiltered,
-  kFilterResets,
-  kPosesPublished,
-  kPosesDroppedOutput,
-  kLcmErrors,
-  // SensorSyncCounters, copied by the sync thread.
-  kSyncImuReceived,
-  kSyncImuDuplicates,
-  kSyncImuOutOfOrder,
-  kSyncImuGaps,
-  kSyncImuTimeJumps,
-  kSyncImagesReceived,
-  kSyncImagesDuplicate,
-  kSyncImagesOutOfOrder,
-  kSyncImagesLate,
-  kSyncImageTimeJumps,
-  kSyncFramesReleased,
-  kSyncFramesIncomplete,
-  kSyncFramesDroppedNoImu,
-  kSyncFramesDroppedOverflow,
-  // Map-builder stage (docs/daemon.md "Map building").
-  kMapFramesQueued,    // frames (state + images) handed to the builder
-  kMapFramesThinned,   // tracking frames the builder does not want (vertex rate)
-  kMapFramesDropped,   // live: the builder was behind (mapping.max_frames_in_flight / queue)
-  kMapImuDropped,      // a bug: the queue is sized for tens of seconds of IMU
-  kMapVertices,
-  kMapImuEdges,
-  kMapKeypoints,
-  kMapLandmarks,
-  kMapLandmarksGood,
-  kMapVertexUsMean,    // builder time per vertex [us], mean and max
-  kMapVertexUsMax,
-  kMapDeltas,          // deltas taken for the stream
-  kMapMissions,        // missions started (a new one after each filter reset / restart)
-  kMapMissionsDropped, // ended with fewer than 2 vertices: neither saved nor streamed
-  kStreamSent,         // chunks queued (each transmitted once, then resent until acked)
-  kStreamAcked,
-  kStreamRetransmitted,
-  kStreamWindowFull,   // Send()/End() refused: the window was full (the delta waits)
-  kStreamDiskFullAcks,
-  kStreamErrorAcks,
-  kStreamBacklog,      // deltas waiting for window space
-  // Localization stage (docs/daemon.md "Localization").
-  kLocAttempts,        // frames handed to the localizer
-  kLocThinned,         // tracking frames not wanted (max_rate_hz)
-  kLocBusy,            // live: wanted, but the localizer was still busy (not a drop)
-  kLocOk,              // library statuses
-  kLocNoKeypoints,
-  kLocNoDescriptorMatches,
-  kLocTooFewMatches,
-  kLocRansacFailed,
-  kLocTooFewInliers,
-  kLocRejectedInliers,  // ok, but fewer than localization.min_inliers
-  kLocRejectedGravity,  // T_G_M not a yaw rotation
-  kLocRejectedJump,     // gated against the estimate
-  kLocRejectedStale,    // result for a previous M frame (filter restart / reset meanwhile)
-  kLocTgmUpdates,       // accepted into the T_G_M estimate
-  kLocTgmResets,        // estimate dropped (filter restart/reset, or re-initialized)
-  kLocInitialized,      // gauge: 1 when VILMA_POSE is published
-  kLocPosesPublished,
-  kLocStageUsP50,       // localizer stage time per query (extract + Localize) [us]
-  kLocStageUsMax,
-  kLocMessagesPublished,  // VILMA_LOC messages (one per attempt)
-  kLocMessagesDropped,    // live: the publisher queue was full
-  kNumCounters
-};
-
-constexpr std::array<const char*, kNumCounters> kCounterNames = {
-    "imu_received",
-    "images_received",
-    "malformed_imu",
-    "malformed_images",
-    "images_wrong_size",
-    "images_dropped_pool",
-    "images_dropped_input_queue",
-    "imu_dropped_input_queue",
-    "imu_dropped_filter_queue",
-    "frames_dropped_busy",
-    "frames_dropped_filter_queue",
-    "frames_without_vio_camera",
-    "camera_silences",
-    "time_jump_restarts",
-    "frames_filtered",
-    "filter_resets",
-    "poses_published",
-    "poses_dropped_output",
-    "lcm_errors",
-    "sync_imu_received",
-    "sync_imu_duplicates",
-    "sync_imu_out_of_order",
-    "sync_imu_gaps",
-    "sync_imu_time_jumps",
-    "sync_images_received",
-    "sync_images_duplicate",
-    "sync_images_out_of_order",
-    "sync_images_late",
-    "sync_image_time_jumps",
-    "sync_frames_released",
-    "sync_frames_incomplete",
-    "sync_frames_dropped_no_imu",
-    "sync_frames_dropped_overflow",
-    "map_frames_queued",
-    "map_frames_thinned",
-    "map_frames_dropped",
-    "map_imu_dropped",
-    "map_vertices",
-    "map_imu_edges",
-    "map_keypoints",
-    "map_landmarks",
-    "map_landmarks_good",
-    "map_vertex_us_mean",
-    "map_vertex_us_max",
-    "map_deltas",
-    "map_missions",
-    "map_missions_dropped",
-    "stream_sent",
-    "stream_acked",
-    "stream_retransmitted",
-    "stream_window_full",
-    "stream_disk_full_acks",
-    "stream_error_acks",
-    "stream_backlog",
-    "loc_attempts",
-    "loc_thinned",
-    "loc_busy",
-    "loc_ok",
-    "loc_no_keypoints",
-    "loc_no_descriptor_matches",
-    "loc_too_few_matches",
-    "loc_ransac_failed",
-    "loc_too_few_inliers",
-    "loc_rejected_inliers",
-    "loc_rejected_gravity",
-    "loc_rejected_jump",
-    "loc_rejected_stale",
-    "loc_tgm_updates",
-    "loc_tgm_resets",
-    "loc_initialized",
-    "loc_poses_published",
-    "loc_stage_us_p50",
-    "loc_stage_us_max",
-    "loc_messages_published",
-    "loc_messages_dropped",
 };
 
 // Counters that are drops (summed into "drops").
@@ -1079,12 +918,9 @@ void EstimatorDaemon::Impl::SyncLoop() {
       }
     }
     const SensorSyncCounters& s = sync.counters();
-    const int64_t values[] = {s.imu_received,       s.imu_duplicates,     s.imu_out_of_order,
-                              s.imu_gaps,           s.imu_time_jumps,     s.images_received,
-                              s.images_duplicate,   s.images_out_of_order, s.images_late,
-                              s.image_time_jumps,   s.frames_released,    s.frames_incomplete,
-                              s.frames_dropped_no_imu, s.frames_dropped_overflow};
-    for (int i = 0; i < 14; ++i) counters[kSyncImuReceived + i].store(values[i], std::memory_order_relaxed);
+    for (const SyncCounterField& f : kSyncCounterFields) {
+      counters[f.id].store(s.*f.field, std::memory_order_relaxed);
+    }
     if (!any) {
       if (input_done.load() && input_queue.read_available() == 0) break;
       sync_wake.Wait(50 * kMs);
@@ -1157,8 +993,7 @@ void EstimatorDaemon::Impl::FilterLoop() {
   };
   auto decide = [&](const LocResultItem& res) {
     using localizer::LocalizationStatus;
-    static_assert(static_cast<int>(LocalizationStatus::kNumStatuses) == 6, "status counters");
-    Count(static_cast<Counter>(kLocOk + static_cast<int>(res.status)));
+    Count(LocStatusCounter(res.status));
     if (res.status != LocalizationStatus::kOk) return LocDecision::kFailed;
     if (res.epoch != epoch) {
       Count(kLocRejectedStale);
@@ -1807,9 +1642,9 @@ void EstimatorDaemon::Impl::PublishStatus(int state, int64_t now_ns) {
   if (state == status_t::OK && (fstate != pose_t::TRACKING || filter_stalled.load())) {
     msg.state = status_t::DEGRADED;
   }
-  for (int i = 0; i < kNumCounters; ++i) {
-    msg.counter_names.push_back(kCounterNames[static_cast<std::size_t>(i)]);
-    msg.counter_values.push_back(Get(static_cast<Counter>(i)));
+  for (const CounterInfo& c : kCounters) {
+    msg.counter_names.push_back(c.name);
+    msg.counter_values.push_back(Get(c.id));
   }
   auto add_counter = [&](const char* name, int64_t value) {
     msg.counter_names.push_back(name);
@@ -1971,9 +1806,7 @@ DaemonSummary EstimatorDaemon::Run() {
   summary.malformed_messages = d.Get(kMalformedImu) + d.Get(kMalformedImages) + d.Get(kImagesWrongSize);
   for (Counter c : kDropCounters) summary.drops += d.Get(c);
   std::ostringstream report;
-  for (int i = 0; i < kNumCounters; ++i) {
-    report << kCounterNames[static_cast<std::size_t>(i)] << " " << d.Get(static_cast<Counter>(i)) << "\n";
-  }
+  for (const CounterInfo& c : kCounters) report << c.name << " " << d.Get(c.id) << "\n";
   summary.report = report.str();
   summary.mapping = d.mapping_enabled;
   summary.map_saved = d.map_saved;
