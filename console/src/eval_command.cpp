@@ -14,6 +14,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "vilma/core/atomic_file.h"
 #include "vilma/core/error.h"
 #include "vilma/core/json.h"
 
@@ -96,22 +97,6 @@ std::string Fixed(double v, int decimals) {
   char buf[48];
   std::snprintf(buf, sizeof(buf), "%.*f", decimals, v);
   return buf;
-}
-
-// Writes through a temporary file and rename(), so a reader never sees half a file.
-void WriteTextFileAtomically(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw InputError(FormatInputError(path, "", "expected a writable output file"));
-    out << text;
-    out.flush();
-    if (!out) throw InputError(FormatInputError(path, "", "expected a writable output file"));
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw InputError(FormatInputError(path, "", "expected a writable output file (rename failed)"));
-  }
 }
 
 std::string ScriptsDir() {
@@ -912,7 +897,7 @@ int RunEvalCommand(const std::vector<std::string>& args, std::ostream& out, std:
     if (!options.json_path.empty()) {
       std::ostringstream json;
       WriteEvalJson(json, options, gt, est, result);
-      WriteTextFileAtomically(options.json_path, json.str());
+      WriteFileAtomically(options.json_path, json.str());
       out << "\nwrote " << options.json_path << "\n";
     }
     if (!options.plot_path.empty()) {

@@ -1,12 +1,7 @@
 #include "vilma/core/asl_dataset.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -304,42 +299,6 @@ void AslDatasetWriter::Finish() {
     }
     WriteFileAtomically(
         (fs::path(mav0_dir_) / "state_groundtruth_estimate0" / "data.csv").string(), gt);
-  }
-}
-
-void WriteFileAtomically(const std::string& path, const std::string& content) {
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  auto fail = [&](const std::string& what) {
-    const std::string reason = std::strerror(errno);
-    ::unlink(tmp.c_str());
-    throw InputError(FormatInputError(path, "", what + " (" + reason + ")"));
-  };
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) fail("a writable location");
-  std::size_t written = 0;
-  while (written < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      ::close(fd);
-      fail("room to write the file");
-    }
-    written += static_cast<std::size_t>(n);
-  }
-  if (::fsync(fd) != 0) {
-    ::close(fd);
-    fail("a successful fsync");
-  }
-  if (::close(fd) != 0) fail("a successful close");
-  if (::rename(tmp.c_str(), path.c_str()) != 0) fail("a successful rename into place");
-  // Make the rename itself durable.
-  const std::string dir = fs::path(path).parent_path().empty()
-                              ? std::string(".")
-                              : fs::path(path).parent_path().string();
-  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd >= 0) {
-    ::fsync(dir_fd);
-    ::close(dir_fd);
   }
 }
 

@@ -132,22 +132,5 @@ TEST_CASE("An unreadable image is named in the error", "[asl]") {
                     Catch::Contains("bad.png") && Catch::Contains("readable image"));
 }
 
-TEST_CASE("WriteFileAtomically replaces the file and leaves no temporary", "[asl]") {
-  testing::TempDir dir;
-  const std::string path = dir.File("out.txt");
-  WriteFileAtomically(path, "first");
-  WriteFileAtomically(path, "second");
-  std::ifstream in(path);
-  std::string content((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  CHECK(content == "second");
-  int files = 0;
-  for (const auto& entry : fs::directory_iterator(dir.path())) {
-    (void)entry;
-    ++files;
-  }
-  CHECK(files == 1);
-  CHECK_THROWS_AS(WriteFileAtomically(dir.File("no/such/dir/x.txt"), "x"), InputError);
-}
-
 }  // namespace
 }  // namespace vilma

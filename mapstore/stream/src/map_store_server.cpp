@@ -13,6 +13,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "vilma/core/atomic_file.h"
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
 #include "vilma/mapstore/checksum.h"
@@ -73,24 +74,6 @@ std::map<std::string, std::string> ParseKeyValues(const std::string& text) {
     if (eq != std::string::npos) kv[line.substr(0, eq)] = line.substr(eq + 1);
   }
   return kv;
-}
-
-// temp file, fsync, rename, directory fsync. Returns 0 or errno.
-int WriteSmallFileAtomically(const std::string& dir, const std::string& name, const std::string& text) {
-  const std::string tmp = dir + "/." + name + ".tmp";
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return errno;
-  int err = 0;
-  if (::write(fd, text.data(), text.size()) != static_cast<ssize_t>(text.size())) err = errno ? errno : EIO;
-  if (err == 0 && ::fsync(fd) != 0) err = errno;
-  ::close(fd);
-  if (err == 0 && ::rename(tmp.c_str(), (dir + "/" + name).c_str()) != 0) err = errno;
-  if (err != 0) {
-    ::unlink(tmp.c_str());
-    return err;
-  }
-  SyncDir(dir);
-  return 0;
 }
 
 bool IsFolderChar(char c) {
@@ -448,7 +431,7 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
   std::ostringstream marker;
   marker << "folder=" << folder << "\nlast_seq=" << last_seq << "\ncomplete=" << (complete ? 1 : 0)
          << "\nsession=" << m.session_id << "\n";
-  const int err = WriteSmallFileAtomically(JournalDir(), m.hex + ".done", marker.str());
+  const int err = TryWriteFileAtomically(JournalDir() + "/" + m.hex + ".done", marker.str());
   if (err != 0) {
     ++counters_.finalize_errors;
     ++(err == ENOSPC ? counters_.disk_full_errors : counters_.io_errors);

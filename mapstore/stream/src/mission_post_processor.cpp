@@ -12,7 +12,7 @@
 #include <thread>
 #include <vector>
 
-#include "vilma/core/asl_dataset.h"  // WriteFileAtomically
+#include "vilma/core/atomic_file.h"
 
 namespace vilma::mapstore {
 namespace {

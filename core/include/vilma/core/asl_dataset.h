@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "vilma/core/atomic_file.h"  // WriteFileAtomically, used by the writers of datasets
 #include "vilma/core/imu.h"
 
 namespace vilma {
@@ -82,9 +83,5 @@ class AslDatasetWriter {
   std::vector<ImuSample> imu_;
   std::vector<GroundTruthState> ground_truth_;
 };
-
-// Writes `content` to `path` atomically: a temporary file in the same folder, fsync, rename.
-// Throws InputError naming the path on failure.
-void WriteFileAtomically(const std::string& path, const std::string& content);
 
 }  // namespace vilma

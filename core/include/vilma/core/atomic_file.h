@@ -1,0 +1,20 @@
+// Writing a file so that a reader (or a crash) never sees half of it: the one implementation
+// for the whole project.
+#pragma once
+
+#include <string>
+
+namespace vilma {
+
+// Writes `content` to `path` atomically and durably: a temporary file in the same folder
+// (hidden: ".<name>.XXXXXX", so folder listings never take it for data), fsync of the file,
+// rename over `path`, fsync of the folder (so the rename itself survives a power loss). On
+// failure the temporary file is removed and an existing `path` is left as it was.
+// Throws InputError naming `path` and the step that failed.
+void WriteFileAtomically(const std::string& path, const std::string& content);
+
+// The same, for callers that report failures as a status instead of an exception (mapstored
+// acks DISK_FULL on ENOSPC): returns 0 or the errno of the step that failed.
+int TryWriteFileAtomically(const std::string& path, const std::string& content);
+
+}  // namespace vilma

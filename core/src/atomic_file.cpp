@@ -1,0 +1,87 @@
+#include "vilma/core/atomic_file.h"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <vector>
+
+#include "vilma/core/error.h"
+
+namespace vilma {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The step that failed (for the error message) and its errno.
+struct WriteResult {
+  int error = 0;
+  const char* step = "";
+};
+
+WriteResult WriteAtomically(const std::string& path, const std::string& content) {
+  const fs::path target(path);
+  const std::string dir =
+      target.parent_path().empty() ? std::string(".") : target.parent_path().string();
+  // mkstemp gives a name no other writer (thread or process) uses at the same time.
+  std::string tmp_template = dir + "/." + target.filename().string() + ".XXXXXX";
+  std::vector<char> tmp(tmp_template.begin(), tmp_template.end());
+  tmp.push_back('\0');
+  const int fd = ::mkostemp(tmp.data(), O_CLOEXEC);
+  if (fd < 0) return {errno, "a writable folder for a temporary file"};
+  auto fail = [&](const char* step) {
+    const int err = errno != 0 ? errno : EIO;
+    ::close(fd);
+    ::unlink(tmp.data());
+    return WriteResult{err, step};
+  };
+  // mkstemp creates 0600; data files are readable by others, as with open(..., 0644).
+  if (::fchmod(fd, 0644) != 0) return fail("permission to set the file mode");
+  std::size_t written = 0;
+  while (written < content.size()) {
+    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return fail("room to write the file");
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  if (::fsync(fd) != 0) return fail("a successful fsync");
+  if (::close(fd) != 0) {
+    const int err = errno;
+    ::unlink(tmp.data());
+    return {err, "a successful close"};
+  }
+  if (::rename(tmp.data(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.data());
+    return {err, "a successful rename into place"};
+  }
+  // Make the rename itself durable. The file is in place now; a folder that cannot be synced
+  // (some file systems refuse fsync on a directory) does not undo that.
+  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd >= 0) {
+    ::fsync(dir_fd);
+    ::close(dir_fd);
+  }
+  return {};
+}
+
+}  // namespace
+
+void WriteFileAtomically(const std::string& path, const std::string& content) {
+  const WriteResult r = WriteAtomically(path, content);
+  if (r.error != 0) {
+    throw InputError(
+        FormatInputError(path, "", std::string(r.step) + " (" + std::strerror(r.error) + ")"));
+  }
+}
+
+int TryWriteFileAtomically(const std::string& path, const std::string& content) {
+  return WriteAtomically(path, content).error;
+}
+
+}  // namespace vilma

@@ -1,0 +1,130 @@
+#include "vilma/core/atomic_file.h"
+
+#include <signal.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
+
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <cerrno>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "core/test_data.h"
+#include "vilma/core/error.h"
+
+namespace vilma {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string ReadAll(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+std::vector<std::string> Names(const std::string& dir) {
+  std::vector<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.push_back(entry.path().filename());
+  return names;
+}
+
+// Limits the size of files this process may write (RLIMIT_FSIZE) while in scope, with SIGXFSZ
+// ignored so that write() fails with EFBIG instead of killing the process. Unlike a folder
+// without write permission, this makes a write fail for root too (the tests run as root).
+class FileSizeLimit {
+ public:
+  explicit FileSizeLimit(rlim_t bytes) {
+    old_handler_ = ::signal(SIGXFSZ, SIG_IGN);
+    ::getrlimit(RLIMIT_FSIZE, &old_);
+    rlimit limit = old_;
+    limit.rlim_cur = bytes;
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+  }
+  ~FileSizeLimit() {
+    ::setrlimit(RLIMIT_FSIZE, &old_);
+    ::signal(SIGXFSZ, old_handler_);
+  }
+
+ private:
+  rlimit old_{};
+  sighandler_t old_handler_ = SIG_DFL;
+};
+
+TEST_CASE("WriteFileAtomically writes and replaces the content and leaves no temporary file",
+          "[atomic_file]") {
+  testing::TempDir dir;
+  const std::string path = dir.File("out.txt");
+  WriteFileAtomically(path, "first");
+  CHECK(ReadAll(path) == "first");
+  const std::string binary("a\0b\nc", 5);
+  WriteFileAtomically(path, binary);
+  CHECK(ReadAll(path) == binary);
+  WriteFileAtomically(path, "");
+  CHECK(ReadAll(path).empty());
+  CHECK(Names(dir.path()) == std::vector<std::string>{"out.txt"});
+  struct stat st {};
+  REQUIRE(::stat(path.c_str(), &st) == 0);
+  CHECK((st.st_mode & 0777) == 0644);  // readable by others, as the data files it replaces
+}
+
+TEST_CASE("WriteFileAtomically: a failed write leaves the old file intact and no temporary",
+          "[atomic_file]") {
+  testing::TempDir dir;
+  const std::string path = dir.File("map.yaml");
+  WriteFileAtomically(path, "old content\n");
+  const std::string big(64 * 1024, 'x');
+  {
+    FileSizeLimit limit(1024);  // the new content does not fit: write() fails with EFBIG
+    CHECK_THROWS_WITH(WriteFileAtomically(path, big),
+                      Catch::Contains("map.yaml") && Catch::Contains("room to write the file"));
+    CHECK(TryWriteFileAtomically(path, big) == EFBIG);
+  }
+  CHECK(ReadAll(path) == "old content\n");
+  CHECK(Names(dir.path()) == std::vector<std::string>{"map.yaml"});
+}
+
+TEST_CASE("WriteFileAtomically: a path that cannot be created is named in the error",
+          "[atomic_file]") {
+  testing::TempDir dir;
+  // A parent that is a regular file fails for root as well (unlike a read-only folder).
+  const std::string file = dir.File("plain_file");
+  WriteFileAtomically(file, "not a folder");
+  const std::string path = file + "/out.txt";
+  CHECK_THROWS_AS(WriteFileAtomically(path, "x"), InputError);
+  CHECK_THROWS_WITH(WriteFileAtomically(path, "x"), Catch::Contains(path));
+  CHECK(TryWriteFileAtomically(path, "x") == ENOTDIR);
+  CHECK(TryWriteFileAtomically(dir.File("no/such/dir/x.txt"), "x") == ENOENT);
+  // A folder in the place of the file: the rename fails, the folder and its content stay.
+  fs::create_directories(dir.File("taken/inner"));
+  CHECK_THROWS_WITH(WriteFileAtomically(dir.File("taken"), "x"), Catch::Contains("rename"));
+  CHECK(fs::is_directory(dir.File("taken/inner")));
+  CHECK(ReadAll(file) == "not a folder");
+  std::vector<std::string> names = Names(dir.path());
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{"plain_file", "taken"});
+}
+
+TEST_CASE("WriteFileAtomically: concurrent writers of one file never leave a mixed file",
+          "[atomic_file]") {
+  testing::TempDir dir;
+  const std::string path = dir.File("shared.txt");
+  const std::string a(200000, 'a');
+  const std::string b(200000, 'b');
+  std::vector<std::thread> writers;
+  for (int t = 0; t < 4; ++t) {
+    writers.emplace_back([&, t] {
+      for (int i = 0; i < 5; ++i) WriteFileAtomically(path, t % 2 == 0 ? a : b);
+    });
+  }
+  for (std::thread& w : writers) w.join();
+  const std::string content = ReadAll(path);
+  CHECK((content == a || content == b));
+  CHECK(Names(dir.path()) == std::vector<std::string>{"shared.txt"});
+}
+
+}  // namespace
+}  // namespace vilma
