@@ -1,4 +1,5 @@
 #include "vilma/console/eval_command.h"
+#include "test_skip.h"
 
 #include <catch2/catch.hpp>
 
@@ -209,7 +210,7 @@ TEST_CASE("eval end to end with --json parse-back", "[eval]") {
       "'rotation_rmse_deg' in d['rpe'][0], 'translation_rmse_m' in d['rpe'][0])";
   const int code = Run("python3 -c \"" + script + "\" " + json + " 2>&1", &parsed);
   if (code != 0 && parsed.find("not found") != std::string::npos) {
-    WARN("python3 not available, JSON checked by text only");
+    VILMA_SKIP_NOTE("python3 not available, JSON checked by text only");
     CHECK(text.find("\"translation_rmse_m\"") != std::string::npos);
   } else {
     INFO(text);
@@ -224,8 +225,7 @@ TEST_CASE("eval --plot writes a PNG", "[eval]") {
       Run("python3 -c 'import matplotlib' 2>/dev/null", &ignored) == 0 ||
       Run("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null", &ignored) == 0;
   if (!have_matplotlib) {
-    WARN("python3 matplotlib not importable: skipping the --plot test");
-    return;
+    VILMA_SKIP("python3 matplotlib not importable (Debian package python3-matplotlib)");
   }
   Files f;
   WriteInputs(f);
@@ -242,8 +242,7 @@ TEST_CASE("eval --plot writes a PNG", "[eval]") {
 TEST_CASE("the vilma binary dispatches eval", "[eval]") {
   const std::string binary = std::string(VILMA_BINARY_DIR) + "/bin/vilma";
   if (::access(binary.c_str(), X_OK) != 0) {
-    WARN("no binary at " << binary << " (build target vilma): skipping");
-    return;
+    VILMA_SKIP("no binary at " << binary << " (build target vilma)");
   }
   std::string out;
   CHECK(Run(binary + " --help", &out) == 0);
@@ -383,7 +382,7 @@ TEST_CASE("eval --align first --within: report and JSON", "[eval]") {
       "for w in d['within']])";
   const int code = Run("python3 -c \"" + script + "\" " + json + " 2>&1", &parsed);
   if (code != 0 && parsed.find("not found") != std::string::npos) {
-    WARN("python3 not available, JSON checked by text only");
+    VILMA_SKIP_NOTE("python3 not available, JSON checked by text only");
     CHECK_THAT(Slurp(json), Catch::Contains("\"alignment\": \"first\""));
   } else {
     INFO(Slurp(json));
@@ -525,7 +524,7 @@ TEST_CASE("eval --align-from: round trip through --json", "[eval]") {
               query_json + " " + map_json + " 2>&1",
           &parsed);
   if (code != 0 && parsed.find("not found") != std::string::npos) {
-    WARN("python3 not available, JSON checked by text only");
+    VILMA_SKIP_NOTE("python3 not available, JSON checked by text only");
   } else {
     CHECK(code == 0);
     CHECK(parsed == "fixed True 0.5000\n");

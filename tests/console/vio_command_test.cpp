@@ -1,4 +1,5 @@
 #include "vilma/console/vio_command.h"
+#include "test_skip.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -51,8 +52,7 @@ TEST_CASE("vilma vio exits 2 on usage errors and 1 on bad input") {
 TEST_CASE("vilma vio runs on the EuRoC static slice and is deterministic") {
   const std::string data = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
   if (!std::filesystem::exists(data + "/mav0")) {
-    WARN("SKIPPED: " << data << " is absent");
-    return;
+    VILMA_SKIP(data << " is absent");
   }
   const std::filesystem::path tmp = std::filesystem::temp_directory_path();
   const std::string pid = std::to_string(::getpid());

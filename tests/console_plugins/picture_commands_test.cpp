@@ -8,6 +8,7 @@
 
 #include "console_plugins/test_maps.h"
 #include "vilma/console/session.h"
+#include "test_skip.h"
 
 namespace vilma::console {
 namespace {
@@ -73,15 +74,13 @@ TEST_CASE("export_html writes a page of a daemon map that draws in headless Chro
   CHECK_THAT(r.message, Catch::Contains(".html"));
 
   if (!fs::exists("/usr/share/javascript/three/three.min.js")) {
-    WARN("skipped the page itself: Debian's libjs-three is not installed");
-    return;
+    VILMA_SKIP("the page itself: Debian's libjs-three is not installed");
   }
   REQUIRE(f.Run("export_html " + dir).ok());
   CHECK_THAT(f.out.str(),
              Catch::Contains("wrote " + dir + "/map.html") && Catch::Contains("three.js r111"));
   if (!test::HaveProgram("chromium")) {
-    WARN("skipped loading the page: Debian's chromium is not installed");
-    return;
+    VILMA_SKIP("loading the page: Debian's chromium is not installed");
   }
   test::ChildProcess chromium(
       {"chromium", "--headless=new", "--no-sandbox", "--disable-gpu", "--use-angle=swiftshader",

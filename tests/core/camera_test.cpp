@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "core/test_utils.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -537,8 +538,7 @@ TEST_CASE("Undistort a real EuRoC cam0 image", "[camera]") {
   const std::filesystem::path dir =
       std::filesystem::path(VILMA_SHARED_DATA_DIR) / "euroc_V1_01_micro/mav0/cam0/data";
   if (!std::filesystem::is_directory(dir)) {
-    WARN("SKIPPED: EuRoC slice not found at " << dir.string());
-    return;
+    VILMA_SKIP("EuRoC slice not found at " << dir.string());
   }
   std::vector<std::filesystem::path> files;
   for (const auto& entry : std::filesystem::directory_iterator(dir)) {

@@ -6,6 +6,8 @@
 #include <random>
 #include <string>
 
+#include "test_skip.h"
+
 namespace vilma::testing {
 
 // ../shared/data (VILMA_SHARED_DATA_DIR), or "" when absent.
@@ -43,11 +45,10 @@ class TempDir {
 
 }  // namespace vilma::testing
 
-// Skips the rest of a test (with a visible warning) when the shared data is not there.
+// Skips the rest of a test (VILMA_SKIP: reported as skipped) when the shared data is not there.
 #define VILMA_REQUIRE_SHARED_DATA(dir)                                                \
   do {                                                                                \
     if ((dir).empty()) {                                                              \
-      WARN("skipped: ../shared/data not found (set VILMA_SHARED_DATA_DIR at cmake)"); \
-      return;                                                                         \
+      VILMA_SKIP("../shared/data not found (set VILMA_SHARED_DATA_DIR at cmake)");    \
     }                                                                                 \
   } while (0)

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "vilma/core/error.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -487,8 +488,7 @@ TEST_CASE("EuRoC V1_01 re-estimated ground truth vs the original (TUM)", "[eval]
   const std::string dir = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
   std::ifstream probe(dir + "/V1_01_easy_gt_original_tum.txt");
   if (!probe) {
-    WARN("shared data not found at " << dir << ", skipping");
-    return;
+    VILMA_SKIP("shared data not found at " << dir);
   }
   const Trajectory gt = ReadTrajectoryFile(dir + "/mav0/state_groundtruth_estimate0/data.csv");
   const Trajectory est = ReadTrajectoryFile(dir + "/V1_01_easy_gt_original_tum.txt");

@@ -8,6 +8,7 @@
 #include <string>
 
 #include "vilma/core/error.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -210,8 +211,7 @@ TEST_CASE("real EuRoC ground truth and TUM files load", "[trajectory]") {
   const std::string dir = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
   std::ifstream probe(dir + "/V1_01_easy_gt_original_tum.txt");
   if (!probe) {
-    WARN("shared data not found at " << dir << ", skipping");
-    return;
+    VILMA_SKIP("shared data not found at " << dir);
   }
   const Trajectory tum = ReadTrajectoryFile(dir + "/V1_01_easy_gt_original_tum.txt");
   CHECK(tum.format == TrajectoryFormat::kTum);

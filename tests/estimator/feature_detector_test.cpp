@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "estimator/synthetic_images.h"
+#include "test_skip.h"
 
 namespace vilma::estimator {
 namespace {
@@ -139,8 +140,7 @@ TEST_CASE("Detector options are validated", "[detector]") {
 TEST_CASE("Detector finds at least 20 features on a EuRoC cam0 frame", "[detector]") {
   const auto paths = testing::EurocCam0Images();
   if (paths.empty()) {
-    WARN("EuRoC slice not found under " VILMA_SHARED_DATA_DIR "; skipping");
-    return;
+    VILMA_SKIP("EuRoC slice not found under " VILMA_SHARED_DATA_DIR);
   }
   const cv::Mat image = cv::imread(paths.front(), cv::IMREAD_GRAYSCALE);
   REQUIRE(!image.empty());

@@ -11,6 +11,7 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/rig.h"
 #include "vilma/core/trajectory_eval.h"
+#include "test_skip.h"
 
 namespace vilma::estimator {
 namespace {
@@ -236,8 +237,7 @@ TEST_CASE("the filter rejects invalid options and rigs with clear errors") {
 TEST_CASE("a simulated room sequence is tracked within a loose bound") {
   const std::string sim = std::string(VILMA_BINARY_DIR) + "/bin/vilma-sim";
   if (!std::filesystem::exists(sim)) {
-    WARN("SKIPPED: " << sim << " is not built");
-    return;
+    VILMA_SKIP(sim << " is not built");
   }
   const std::filesystem::path dir =
       std::filesystem::temp_directory_path() /

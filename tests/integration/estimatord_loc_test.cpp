@@ -26,6 +26,7 @@
 #include "vilma/core/geometry.h"
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_log.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -172,7 +173,7 @@ std::map<int64_t, Transformation> GroundTruth(const std::string& dataset) {
 bool HaveBinaries() {
   for (const std::string& b : {kDaemon, kSim, kReplay, kLocmap}) {
     if (!test::FileExists(b)) {
-      WARN("skipped: " << b << " not built");
+      VILMA_SKIP_NOTE(b << " not built");
       return false;
     }
   }

@@ -20,6 +20,7 @@
 #include "vilma/core/trajectory_eval.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -36,7 +37,7 @@ const std::string kMapstored = kBin + "vilma-mapstored";
 bool HaveBinaries() {
   for (const std::string& b : {kDaemon, kSim, kReplay, kMapstored}) {
     if (!test::FileExists(b)) {
-      WARN("skipped: " << b << " not built");
+      VILMA_SKIP_NOTE(b << " not built");
       return false;
     }
   }

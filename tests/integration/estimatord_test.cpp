@@ -22,6 +22,7 @@
 #include "vilma/core/trajectory_eval.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_log.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -40,7 +41,7 @@ double SecondsSince(Clock::time_point t0) {
 bool HaveBinaries() {
   for (const std::string& b : {kDaemon, kSim, kReplay}) {
     if (!test::FileExists(b)) {
-      WARN("skipped: " << b << " not built");
+      VILMA_SKIP_NOTE(b << " not built");
       return false;
     }
   }

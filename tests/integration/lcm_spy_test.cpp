@@ -1,6 +1,6 @@
 // scripts/lcm-spy starts under Xvfb with the vilma types on Debian 12 (Java 17), and the
 // type database it uses maps the fingerprint of a C++ vilma.imu_t to the Java class.
-// Skips (WARN) without java, xvfb-run or the types jar.
+// Skips (VILMA_SKIP) without java, xvfb-run or the types jar.
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <lcm/lcm-cpp.hpp>
@@ -9,6 +9,7 @@
 #include <vilma/imu_t.hpp>
 
 #include "integration/process_util.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -19,13 +20,11 @@ TEST_CASE("scripts/lcm-spy starts with the vilma types and decodes imu_t",
   const std::string script = std::string(VILMA_SOURCE_DIR) + "/scripts/lcm-spy";
   for (const char* program : {"java", "xvfb-run"}) {
     if (!test::HaveProgram(program)) {
-      WARN("SKIPPED: " << program << " not found (apt-get install openjdk-17-jre xvfb xauth)");
-      return;
+      VILMA_SKIP(program << " not found (Debian packages default-jdk-headless xvfb xauth)");
     }
   }
   if (!test::FileExists(jar) || !test::FileExists("/usr/share/java/jchart2d.jar")) {
-    WARN("SKIPPED: " << jar << " or /usr/share/java/jchart2d.jar missing");
-    return;
+    VILMA_SKIP(jar << " or /usr/share/java/jchart2d.jar missing");
   }
   int num_types = 0;
   for (const auto& entry :

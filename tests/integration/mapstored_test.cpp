@@ -9,6 +9,7 @@
 #include "integration/process_util.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/stream/synthetic_mission.h"
+#include "test_skip.h"
 
 using namespace vilma::test;
 using namespace vilma::mapstore;
@@ -20,7 +21,7 @@ const std::string kSender = std::string(VILMA_BINARY_DIR) + "/bin/vilma-mission-
 
 bool HaveBinaries() {
   if (HaveProgram(kMapstored) && HaveProgram(kSender)) return true;
-  WARN("skipped: build vilma-mapstored and vilma-mission-sender first");
+  VILMA_SKIP_NOTE("build vilma-mapstored and vilma-mission-sender first");
   return false;
 }
 

@@ -16,6 +16,7 @@
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_log.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -105,7 +106,7 @@ std::vector<Expected> ExpectedMessages(const AslDataset& dataset, double end_s) 
 
 bool HaveDataset() {
   if (test::FileExists(kDataset + "/mav0/cam0/data.csv")) return true;
-  WARN("SKIPPED: " << kDataset << " is absent (set VILMA_SHARED_DATA_DIR)");
+  VILMA_SKIP_NOTE(kDataset << " is absent (set VILMA_SHARED_DATA_DIR)");
   return false;
 }
 
@@ -167,8 +168,7 @@ TEST_CASE("lcm-logger's recording of vilma-replay equals vilma-replay --to-log",
           "[integration][replay][lcm]") {
   if (!HaveDataset()) return;
   if (!test::HaveProgram("lcm-logger")) {
-    WARN("SKIPPED: lcm-logger not found (Debian package liblcm-bin)");
-    return;
+    VILMA_SKIP("lcm-logger not found (Debian package liblcm-bin)");
   }
   const std::string url = test::UniqueLcmUrl();
   const std::string dir = test::ScratchDir();

@@ -10,6 +10,7 @@
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_log.h"
+#include "test_skip.h"
 
 namespace vilma {
 namespace {
@@ -18,8 +19,7 @@ const std::string kSim = std::string(VILMA_BINARY_DIR) + "/bin/vilma-sim";
 
 TEST_CASE("vilma-sim --live publishes what vilma-sim --out writes", "[integration][sim]") {
   if (!test::FileExists(kSim)) {
-    WARN("skipped: " << kSim << " not built");
-    return;
+    VILMA_SKIP(kSim << " not built");
   }
   const std::string dir = test::ScratchDir() + "/sim_live";
   std::filesystem::remove_all(dir);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <chrono>
+#include <filesystem>
 #include <map>
 #include <numeric>
 #include <opencv2/core/utility.hpp>
@@ -12,6 +13,7 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/geometry.h"
 #include "vilma/core/rig.h"
+#include "test_skip.h"
 
 namespace vilma::localizer {
 namespace {
@@ -159,8 +161,9 @@ TEST_CASE("FeatureTracker on the simulated room: tracks agree with the ground-tr
     dataset = AslDataset::Open(root);
     rig = LoadSensorRig(root + "/rig.yaml");
   } catch (const std::exception& e) {
-    WARN("SKIPPED: simulated dataset " << root << " not available (" << e.what() << ")");
-    return;
+    if (std::filesystem::exists(root)) FAIL(root << ": " << e.what());
+    VILMA_SKIP_OPTIONAL("simulated dataset " << root
+                                             << " absent (scripts/make-datasets.sh makes it)");
   }
   REQUIRE(!dataset.ground_truth().empty());
   const Camera& camera = rig.cameras[0].camera;
@@ -306,7 +309,7 @@ bool OpenEuroc(AslDataset* dataset, Camera* camera) {
     *dataset = AslDataset::Open(root);
     *camera = ImportEurocRig(root).cameras[0].camera;
   } catch (const std::exception& e) {
-    WARN("SKIPPED: EuRoC slice not found under " VILMA_SHARED_DATA_DIR " (" << e.what() << ")");
+    VILMA_SKIP_NOTE("EuRoC slice not found under " VILMA_SHARED_DATA_DIR " (" << e.what() << ")");
     return false;
   }
   return !dataset->cameras().empty();
@@ -525,7 +528,9 @@ TEST_CASE("FeatureTracker timing per keyframe", "[.][features][benchmark]") {
     }
     for (const char* d : {"orb", "fast"}) run("room-easy", images, rig.cameras[0].camera, rotations, d);
   } catch (const std::exception& e) {
-    WARN("room-easy skipped: " << e.what());
+    if (std::filesystem::exists(room)) FAIL(room << ": " << e.what());
+    VILMA_SKIP_OPTIONAL_NOTE("the room-easy part: " << room
+                                                    << " absent (scripts/make-datasets.sh makes it)");
   }
   AslDataset euroc;
   Camera camera;

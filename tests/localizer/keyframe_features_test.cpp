@@ -7,6 +7,7 @@
 #include "localizer/synthetic_texture.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
+#include "test_skip.h"
 
 namespace vilma::localizer {
 namespace {
@@ -137,8 +138,7 @@ TEST_CASE("ExtractFeatures on a real EuRoC frame fills the grid", "[features]") 
   try {
     dataset = AslDataset::Open(root);
   } catch (const std::exception&) {
-    WARN("EuRoC slice not found under " VILMA_SHARED_DATA_DIR "; skipping");
-    return;
+    VILMA_SKIP("EuRoC slice not found under " VILMA_SHARED_DATA_DIR);
   }
   REQUIRE(!dataset.cameras().empty());
   const cv::Mat image = AslDataset::LoadImage(dataset.cameras()[0].frames[0].image_path);

@@ -18,6 +18,7 @@
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "test_skip.h"
 
 using namespace vilma;
 using namespace vilma::localizer;
@@ -75,8 +76,7 @@ TEST_CASE("kitti localization: loader errors name the file", "[localization][kit
 TEST_CASE("kitti localization: odd frames against a map of the even frames (real images)",
           "[localization][kitti]") {
   if (!fs::exists(kSequence / "poses.txt")) {
-    WARN("SKIPPED: KITTI slice absent at " << kSequence);
-    return;
+    VILMA_SKIP("KITTI slice absent at " << kSequence);
   }
   const KittiSequence seq = LoadKittiSequence(kSequence.string());
   REQUIRE(seq.size() >= 10);

@@ -20,6 +20,7 @@
 #include "vilma/mapstore/map_io.h"
 #include "vilma/sim/simulator.h"
 #include "vilma/sim/world.h"
+#include "test_skip.h"
 
 using namespace vilma;
 using namespace vilma::mapping;
@@ -281,8 +282,7 @@ TEST_CASE("map builder: a last edge without its end sample is held at Finish", "
 TEST_CASE("map builder: room session driven by ground truth", "[mapping][sim]") {
   const fs::path dataset = RoomSession();
   if (dataset.empty()) {
-    WARN("vilma-sim not built (" << VILMA_BINARY_DIR << "/bin/vilma-sim): skipped");
-    return;
+    VILMA_SKIP("vilma-sim not built (" << VILMA_BINARY_DIR << "/bin/vilma-sim)");
   }
   GtBuild a = BuildFromGroundTruth(dataset);
   const MapBuilderStats& s = a.stats;
@@ -342,8 +342,7 @@ TEST_CASE("map builder: room session driven by the VIO (vilma vio --save-map)", 
   const fs::path vilma = fs::path(VILMA_BINARY_DIR) / "bin" / "vilma";
   const fs::path dataset = RoomSession();
   if (dataset.empty() || !fs::exists(vilma)) {
-    WARN("vilma-sim or vilma not built in " << VILMA_BINARY_DIR << "/bin: skipped");
-    return;
+    VILMA_SKIP("vilma-sim or vilma not built in " << VILMA_BINARY_DIR << "/bin");
   }
   const fs::path traj = dataset / "vio.txt";
   const fs::path map_dir = dataset / "vio_map";

@@ -1,5 +1,6 @@
 // Runs Debian's COLMAP (`colmap model_analyzer`) on an exported model for the export tests and
-// the console's export command tests. Tests skip (with a WARN saying so) when colmap is absent.
+// the console's export command tests. Tests skip (VILMA_SKIP, tests/test_skip.h) when colmap
+// is absent.
 #pragma once
 
 #include <unistd.h>
@@ -12,6 +13,7 @@
 
 #include "integration/process_util.h"
 #include "mapping_export/data_export_test_util.h"
+#include "test_skip.h"
 
 namespace vilma::mapping::testing {
 

@@ -16,6 +16,7 @@
 #include "mapping_export/map_plot_test_map.h"
 #include "vilma/core/error.h"
 #include "vilma/mapping/export/map_plot.h"
+#include "test_skip.h"
 
 namespace vilma::mapping {
 namespace {
@@ -86,9 +87,8 @@ int CountColor(const cv::Mat& bgr, const std::array<uint8_t, 3>& rgb, int tolera
 
 TEST_CASE("export_html inlines three.js and the map, deterministically", "[html_viewer]") {
   if (!HaveThreeJs()) {
-    WARN("skipped: Debian's libjs-three is not installed (" << HtmlViewerOptions{}.three_js_path
-                                                            << ")");
-    return;
+    VILMA_SKIP("Debian's libjs-three is not installed (" << HtmlViewerOptions{}.three_js_path
+                                                         << ")");
   }
   auto test_map = MakePictureTestMap();
   test_map.map.mission(test_map.map.mission_ids()[1]).name = "beta </script> & <b>";
@@ -168,12 +168,10 @@ TEST_CASE("export_html names a missing or wrong three.js and a bad --out", "[htm
 TEST_CASE("export_html's page draws the map in headless Chromium without errors",
           "[html_viewer][chromium]") {
   if (!test::HaveProgram("chromium")) {
-    WARN("skipped: Debian's chromium is not installed (needed to load the page headless)");
-    return;
+    VILMA_SKIP("Debian's chromium is not installed (needed to load the page headless)");
   }
   if (!HaveThreeJs()) {
-    WARN("skipped: Debian's libjs-three is not installed");
-    return;
+    VILMA_SKIP("Debian's libjs-three is not installed");
   }
   const auto test_map = MakePictureTestMap();
   const std::string dir = Scratch();

@@ -10,6 +10,7 @@
 #include "vilma/core/rig.h"
 #include "vilma/mapping/from_poses/map_from_poses.h"
 #include "vilma/mapstore/consistency.h"
+#include "test_skip.h"
 
 namespace vilma::mapping {
 namespace {
@@ -110,8 +111,7 @@ TEST_CASE("a simulated stereo session with its true poses: consistent map, sub-p
 TEST_CASE("real EuRoC keyframes with ground-truth poses: wide-baseline tracks, pixel-level landmarks") {
   const std::string dataset = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_keyframes";
   if (!fs::exists(dataset + "/mav0")) {
-    WARN("skipped: " << dataset << " not found");
-    return;
+    VILMA_SKIP(dataset << " not found");
   }
   const SensorRig rig = ImportEurocRig(dataset);
   const Trajectory gt = ReadTrajectoryFile(dataset + "/mav0/state_groundtruth_estimate0/data.csv");
