@@ -1,4 +1,5 @@
 #include "vilma/console/localize_command.h"
+#include "vilma/console/eval_command.h"
 
 #include <time.h>
 
@@ -193,6 +194,8 @@ LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
       } else {
         throw UsageError("--align: expected none, posyaw or se3, got '" + v + "'");
       }
+    } else if (a == "--align-from") {
+      o.align_from_path = next();
     } else if (a == "--quiet") {
       o.quiet = arg.Flag();
     } else if (a.rfind("-", 0) == 0) {
@@ -205,6 +208,9 @@ LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
       throw UsageError("unexpected argument '" + a + "' (one DATASET and one MAP)");
     }
   }
+  if (!o.align_from_path.empty() && o.align != AlignmentType::kNone) {
+    throw UsageError("--align and --align-from exclude each other");
+  }
   if (!o.help) {
     if (o.dataset.empty()) throw UsageError("expected DATASET and MAP");
     if (o.map.empty()) throw UsageError("expected MAP after DATASET");
@@ -215,7 +221,8 @@ LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
 void PrintLocalizeHelp(std::ostream& out) {
   out << "usage: vilma localize DATASET MAP [--every N] [--camera C] [--rig RIG.yaml]\n"
          "                      [--config LOCALIZER.yaml] [--features FEATURES.yaml]\n"
-         "                      [--align none|posyaw|se3] [--out RESULTS.csv] [--quiet]\n"
+         "                      [--align none|posyaw|se3 | --align-from ALIGNMENT.json]\n"
+         "                      [--out RESULTS.csv] [--quiet]\n"
          "\n"
          "Offline map check: will MAP localize this recorded session? Every Nth image of\n"
          "camera C of an ASL/EuRoC dataset folder is localized against MAP (a .vlocmap file\n"
@@ -233,6 +240,9 @@ void PrintLocalizeHelp(std::ostream& out) {
          "                   yaw + translation fitted to the localized positions (robust\n"
          "                   refit); errors then show consistency, not absolute accuracy\n"
          "  --align se3      as posyaw with a full rotation\n"
+         "  --align-from F   a fixed alignment: the alignment_transform of 'vilma eval --json F'\n"
+         "                   (e.g. the map's first mission against its ground truth), so that\n"
+         "                   errors are absolute and independent of which queries localized\n"
          "\n"
          "options:\n"
          "  --every N        query every Nth frame (default 10, >= 1)\n"
@@ -378,7 +388,11 @@ int RunLocalizeCommand(const std::vector<std::string>& args, std::ostream& out, 
     Alignment align;  // identity
     bool errors_valid = with_gt > 0;
     std::string align_note = "none (map frame G = ground-truth frame W)";
-    if (errors_valid && o.align != AlignmentType::kNone) {
+    if (errors_valid && !o.align_from_path.empty()) {
+      align = ReadAlignmentJson(o.align_from_path);
+      align_note = "fixed, from " + o.align_from_path;
+      ComputeErrors(align, &queries);
+    } else if (errors_valid && o.align != AlignmentType::kNone) {
       if (FitAlignment(o.align, &queries, &align)) {
         const Eigen::Vector3d& t = align.T_G_E.translation();
         std::ostringstream s;
@@ -455,7 +469,8 @@ int RunLocalizeCommand(const std::vector<std::string>& args, std::ostream& out, 
             << Percentile(e_p, 0.9) << " m (localized queries)\n"
             << std::setprecision(2) << "  rotation   median " << Percentile(e_r, 0.5)
             << " deg, p90 " << Percentile(e_r, 0.9) << " deg\n";
-        if (o.align == AlignmentType::kNone && e_p.size() >= 3 && Percentile(e_p, 0.5) > 1.0) {
+        if (o.align == AlignmentType::kNone && o.align_from_path.empty() && e_p.size() >= 3 &&
+            Percentile(e_p, 0.5) > 1.0) {
           out << "  note       the median error is over 1 m: if MAP was built by VIO (vilma vio\n"
                  "             --save-map), its frame G is that run's odometry frame, not the\n"
                  "             dataset's ground-truth frame: try --align posyaw\n";

@@ -10,6 +10,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/core/timing.h"
+#include "vilma/localizer/localization_map_file.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/vi_map.h"
 
@@ -62,12 +63,6 @@ mapstore::VIMap LoadVIMapFolder(const std::string& dir) {
   return mapstore::LoadMap(dir);
 }
 
-struct BuildSummary {
-  std::size_t missions = 0, vertices = 0, landmarks_total = 0, landmarks_good = 0;
-  localizer::LocalizationMapReport report;  // missions in the common frame G
-  double load_ms = 0.0, build_ms = 0.0, train_ms = 0.0, index_ms = 0.0, save_ms = 0.0;
-};
-
 int RunBuild(const std::vector<std::string>& args, std::ostream& out) {
   std::string vimap_dir, out_path, config_path;
   for (std::size_t i = 0; i < args.size(); ++i) {
@@ -99,66 +94,42 @@ int RunBuild(const std::vector<std::string>& args, std::ostream& out) {
                                       options_error));
   }
 
-  BuildSummary s;
-  auto t0 = std::chrono::steady_clock::now();
+  const auto t0 = std::chrono::steady_clock::now();
   const mapstore::VIMap vimap = LoadVIMapFolder(vimap_dir);
-  s.load_ms = MsSince(t0);
-  s.missions = vimap.mission_ids().size();
-  s.vertices = vimap.num_vertices();
+  const double load_ms = MsSince(t0);
+  std::size_t landmarks_total = 0, landmarks_good = 0;
   for (const mapstore::MissionId& m : vimap.mission_ids()) {
     for (const mapstore::LandmarkId& l : vimap.landmark_ids(m)) {
-      ++s.landmarks_total;
-      if (vimap.landmark(l).quality == mapstore::LandmarkQuality::kGood) ++s.landmarks_good;
+      ++landmarks_total;
+      if (vimap.landmark(l).quality == mapstore::LandmarkQuality::kGood) ++landmarks_good;
     }
   }
-  t0 = std::chrono::steady_clock::now();
-  auto map = std::make_shared<localizer::LocalizationMap>(
-      localizer::BuildLocalizationMap(vimap, options.map, &s.report));
-  s.build_ms = MsSince(t0);
-  if (map->num_landmarks() == 0 || map->num_descriptors() < 2) {
-    throw InputError(FormatInputError(
-        vimap_dir, "landmarks",
-        "good landmarks with at least " + std::to_string(options.map.min_observations) +
-            " observations (the map has " + std::to_string(s.landmarks_good) + " good of " +
-            std::to_string(s.landmarks_total) + ")"));
-  }
-  // The projection is trained by the Localizer itself (the one place that knows how the
-  // index wants it), then stored: loading the file later skips the training.
-  Eigen::MatrixXf projection;
-  {
-    const localizer::Localizer trainer(map, options);
-    s.train_ms = trainer.projection_train_ms();
-    s.index_ms = trainer.index_build_ms();
-    projection = trainer.projection();
-  }  // the trainer (which shares the map) is gone before the map changes
-  map->projection = std::move(projection);
-  t0 = std::chrono::steady_clock::now();
-  localizer::SaveLocalizationMap(*map, out_path);
-  s.save_ms = MsSince(t0);
-  const long long file_bytes = static_cast<long long>(fs::file_size(out_path, ec));
+  const localizer::LocalizationMapFileReport r =
+      localizer::BuildAndSaveLocalizationMap(vimap, options, vimap_dir, out_path);
+  const std::size_t missions = vimap.mission_ids().size();
 
   out << std::fixed << std::setprecision(1) << "vilma locmap build: " << vimap_dir << " -> "
       << out_path << "\n"
-      << "  VI-map           " << s.missions << (s.missions == 1 ? " mission, " : " missions, ")
-      << s.vertices << " vertices, " << s.landmarks_good << " good of " << s.landmarks_total
-      << " landmarks (loaded in " << s.load_ms << " ms)\n"
-      << "  missions used    " << s.report.missions_used << " of " << s.missions
-      << (s.report.missions_skipped > 0
+      << "  VI-map           " << missions << (missions == 1 ? " mission, " : " missions, ")
+      << vimap.num_vertices() << " vertices, " << landmarks_good << " good of " << landmarks_total
+      << " landmarks (loaded in " << load_ms << " ms)\n"
+      << "  missions used    " << r.missions.missions_used << " of " << missions
+      << (r.missions.missions_skipped > 0
               ? " (the others are not anchored: their frames are unknown in G)"
               : "")
       << "\n"
       << "  options          " << (config_path.empty() ? "built-in defaults" : config_path)
       << " (map: min_observations " << options.map.min_observations
       << ", max_descriptors_per_landmark " << options.map.max_descriptors_per_landmark << ")\n"
-      << "  landmarks        " << map->num_landmarks() << " kept\n"
-      << "  descriptors      " << map->num_descriptors() << " (" << map->descriptor_bytes * 8
+      << "  landmarks        " << r.landmarks << " kept\n"
+      << "  descriptors      " << r.descriptors << " (" << r.descriptor_bits
       << " bit)\n"
-      << "  observers        " << map->observers.size() << " vertices\n"
-      << "  projection       " << map->projection.rows() << " x " << map->projection.cols()
-      << " (stored; trained in " << s.train_ms << " ms, index built in " << s.index_ms << " ms)\n"
-      << "  build            " << s.build_ms << " ms (summary map), saved in " << s.save_ms
+      << "  observers        " << r.observers << " vertices\n"
+      << "  projection       " << r.projection_rows << " x " << r.projection_cols
+      << " (stored; trained in " << r.train_ms << " ms, index built in " << r.index_ms << " ms)\n"
+      << "  build            " << r.build_ms << " ms (summary map), saved in " << r.save_ms
       << " ms\n"
-      << "  file             " << Bytes(file_bytes) << "\n";
+      << "  file             " << Bytes(r.file_bytes) << "\n";
   return kExitOk;
 }
 

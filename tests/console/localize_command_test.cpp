@@ -234,6 +234,35 @@ TEST_CASE("vilma localize: a revisiting session localizes in a ground-truth map 
   INFO("recall within 0.5 m: " << within << " / " << queries);
   CHECK(recall >= 0.8);
 
+  // --align-from: a fixed alignment from a `vilma eval --json` file. The identity gives the same
+  // recall line as --align none; 10 m off in x, nothing is within 0.5 m.
+  const auto recall_line = [](const std::string& text) {
+    const std::size_t at = text.find("recall     within 0.5 m");
+    return at == std::string::npos ? std::string() : text.substr(at, text.find('\n', at) - at);
+  };
+  const std::string line_none = recall_line(out);
+  REQUIRE_FALSE(line_none.empty());
+  for (const double x : {0.0, 10.0}) {
+    const std::string json = d.dir + "/alignment-" + std::to_string(static_cast<int>(x)) + ".json";
+    std::ofstream(json) << "{\"schema_version\": 1, \"alignment_transform\": {\"scale\": 1, "
+                           "\"translation_m\": ["
+                        << x << ", 0, 0], \"quaternion_wxyz\": [1, 0, 0, 0]}}\n";
+    REQUIRE(Run({d.session1, d.dir + "/room0.vlocmap", "--every", "5", "--align-from", json,
+                 "--quiet"},
+                &out, &err) == kExitOk);
+    CHECK_THAT(out, Catch::Contains("alignment  fixed, from " + json));
+    if (x == 0.0) {
+      CHECK(recall_line(out) == line_none);
+    } else {
+      CHECK_THAT(recall_line(out), Catch::StartsWith("recall     within 0.5 m: 0 / "));
+    }
+  }
+  CHECK(Run({d.session1, d.dir + "/room0.vlocmap", "--align", "posyaw", "--align-from", "a.json"},
+            &out, &err) == kExitUsage);
+  CHECK(Run({d.session1, d.dir + "/room0.vlocmap", "--align-from", d.dir + "/missing.json"}, &out,
+            &err) == kExitInputError);
+  CHECK_THAT(err, Catch::Contains(d.dir + "/missing.json"));
+
   // ... and the VI-map folder itself (summarized and trained at start): the same results,
   // deterministically (all columns but the timings).
   const std::string csv_folder = d.dir + "/folder.csv";

@@ -3,7 +3,8 @@
 //
 //   vilma localize DATASET MAP [--every N] [--camera C] [--rig RIG.yaml]
 //                  [--config localizer.yaml] [--features FEATURES.yaml]
-//                  [--align none|posyaw|se3] [--out RESULTS.csv] [--quiet]
+//                  [--align none|posyaw|se3 | --align-from ALIGNMENT.json] [--out RESULTS.csv]
+//                  [--quiet]
 //
 // Every Nth image of camera C of an ASL dataset is localized against MAP (a .vlocmap file or a
 // VI-map folder) with the query feature profile of vilma-estimatord; prints one line per query
@@ -33,6 +34,7 @@ struct LocalizeCommandOptions {
   // from vilma-locmap-gt or an anchored map), or kPosYaw / kSe3 fitted to the localized
   // positions themselves (a map built by VIO has G = that run's odometry frame).
   AlignmentType align = AlignmentType::kNone;
+  std::string align_from_path;  // --align-from: a fixed S_W_G from `vilma eval --json`
   bool quiet = false;  // no per-query lines
   bool help = false;
 };

@@ -1,0 +1,58 @@
+#include "vilma/localizer/localization_map_file.h"
+
+#include <chrono>
+#include <filesystem>
+#include <memory>
+
+#include "vilma/core/error.h"
+#include "vilma/core/timing.h"
+
+namespace vilma::localizer {
+LocalizationMapFileReport BuildAndSaveLocalizationMap(const mapstore::VIMap& vimap,
+                                                      const LocalizerOptions& options,
+                                                      const std::string& source,
+                                                      const std::string& path) {
+  LocalizationMapFileReport report;
+  auto t0 = std::chrono::steady_clock::now();
+  auto map =
+      std::make_shared<LocalizationMap>(BuildLocalizationMap(vimap, options.map, &report.missions));
+  report.build_ms = MsSince(t0);
+  if (map->num_landmarks() == 0 || map->num_descriptors() < 2) {
+    std::size_t total = 0, good = 0;
+    for (const mapstore::MissionId& m : vimap.mission_ids()) {
+      for (const mapstore::LandmarkId& l : vimap.landmark_ids(m)) {
+        ++total;
+        if (vimap.landmark(l).quality == mapstore::LandmarkQuality::kGood) ++good;
+      }
+    }
+    throw InputError(FormatInputError(source, "landmarks",
+                                      "good landmarks with at least " +
+                                          std::to_string(options.map.min_observations) +
+                                          " observations (the map has " + std::to_string(good) +
+                                          " good of " + std::to_string(total) + ")"));
+  }
+  // The projection is trained by the Localizer itself (the one place that knows how the index
+  // wants it), then stored; the trainer, which shares the map, is gone before the map changes.
+  Eigen::MatrixXf projection;
+  {
+    const Localizer trainer(map, options);
+    report.train_ms = trainer.projection_train_ms();
+    report.index_ms = trainer.index_build_ms();
+    projection = trainer.projection();
+  }
+  map->projection = std::move(projection);
+  t0 = std::chrono::steady_clock::now();
+  SaveLocalizationMap(*map, path);
+  report.save_ms = MsSince(t0);
+  std::error_code ec;
+  report.file_bytes = static_cast<long long>(std::filesystem::file_size(path, ec));
+  report.landmarks = map->num_landmarks();
+  report.descriptors = map->num_descriptors();
+  report.observers = map->observers.size();
+  report.descriptor_bits = static_cast<int>(map->descriptor_bytes * 8);
+  report.projection_rows = static_cast<int>(map->projection.rows());
+  report.projection_cols = static_cast<int>(map->projection.cols());
+  return report;
+}
+
+}  // namespace vilma::localizer
