@@ -57,8 +57,8 @@ mission0=$(grep -o '^[0-9a-f]\{8\} ' "$work/db.out" | head -1 | tr -d ' ')
   --align posyaw --json "$work/alignment.json" > "$work/alignment.txt"
 
 # 3. Every summarized variant: one console run per database (copy, lsparsify, summary_map).
-recall() {  # localize OUTPUT -> "recall_percent"
-  awk '/recall +within 0.5 m:/ { for (i = 1; i <= NF; ++i) if ($i ~ /%\)?$/ && $(i-1) ~ /\(/) { gsub(/[()%]/, "", $(i-1)); print $(i-1); exit } }' "$1"
+recall() {  # localize OUTPUT -> the recall within 0.5 m [%] (the first "(x %)" of its line)
+  awk '/recall +within 0.5 m:/ { for (i = 2; i <= NF; ++i) if ($i ~ /^%\)/) { gsub(/\(/, "", $(i-1)); print $(i-1); exit } }' "$1"
 }
 csv=$work/summarization.csv
 echo "database,method,pruning,landmarks,vlocmap_mb,recall_percent,lsparsify_s" > "$csv"

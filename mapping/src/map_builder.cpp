@@ -11,6 +11,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/core/timing.h"
+#include "vilma/mapstore/compaction.h"
 
 namespace vilma::mapping {
 namespace {
@@ -39,7 +40,13 @@ std::string MapBuilderStats::ToString(const std::string& indent) const {
     << indent << "keypoints        " << keypoints << " (" << tracked_keypoints
     << " continue a track)\n"
     << indent << "tracks           " << tracks << " with >= 2 observations, " << single_observations
-    << " seen once\n"
+    << " seen once";
+  if (short_tracks > 0 || keypoints_dropped > 0) {
+    s << "; compact: " << short_tracks << " shorter than min_observers and " << bad_not_stored
+      << " bad without a landmark, " << keypoints_dropped << " keypoints without a landmark "
+      << "dropped";
+  }
+  s << "\n"
     << indent << "landmarks        " << landmarks << ": " << landmarks_good << " good, "
     << landmarks_bad << " bad";
   bool first = true;
@@ -314,6 +321,12 @@ const mapstore::VIMap& MapBuilder::Finish() {
       ++stats_.single_observations;
       continue;
     }
+    // Compact maps: such a track's landmark would be bad (too few observers) for good.
+    if (!options_.StoresShortTracks() &&
+        observations.size() < static_cast<std::size_t>(options_.landmark_quality.min_observers)) {
+      ++stats_.short_tracks;
+      continue;
+    }
     ++stats_.tracks;
     obs.clear();
     for (const mapstore::LandmarkObservation& o : observations) {
@@ -330,6 +343,12 @@ const mapstore::VIMap& MapBuilder::Finish() {
     ++stats_.verdicts[static_cast<int>(verdict)];
     // Without a position there is nothing to store (the track's keypoints stay landmark-free).
     if (!result.ok()) continue;
+    // Compact maps store the good landmarks only (what localization and optimization use).
+    if (!options_.StoresBadLandmarks() && verdict != LandmarkVerdict::kGood) {
+      ++stats_.landmarks_bad;
+      ++stats_.bad_not_stored;
+      continue;
+    }
 
     mapstore::Landmark landmark;
     landmark.id = ids_.Next();
@@ -351,7 +370,14 @@ const mapstore::VIMap& MapBuilder::Finish() {
       ++stats_.landmarks_bad;
     }
   }
-  // Every vertex may have new landmark ids: the next delta re-sends them all.
+  if (options_.compact != "none") {
+    const mapstore::KeypointCompactionStats compaction =
+        mapstore::RemoveKeypointsWithoutLandmark(&map_, map_.vertex_ids(mission_id_));
+    stats_.keypoints_dropped = static_cast<int64_t>(compaction.keypoints_before -
+                                                    compaction.keypoints_after);
+  }
+  // Every vertex may have new landmark ids (and, compact, fewer keypoints): the next delta
+  // re-sends them all.
   for (const VertexId& vid : map_.vertex_ids(mission_id_)) delta_vertices_.push_back(vid);
   map_.mission(mission_id_).complete = true;
   imu_.clear();

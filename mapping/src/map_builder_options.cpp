@@ -66,6 +66,9 @@ std::string MapBuilderOptions::Validate() const {
   if (!(e = features.Validate()).empty()) return "features." + e;
   if (!(e = triangulation.Validate()).empty()) return "triangulation." + e;
   if (!(e = landmark_quality.Validate()).empty()) return "landmark_quality." + e;
+  if (compact != "none" && compact != "tracks" && compact != "good") {
+    return "compact: expected \"none\", \"tracks\" or \"good\", got \"" + compact + "\"";
+  }
   return "";
 }
 
@@ -95,6 +98,7 @@ MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {
   o.landmark_quality.max_distance_m = q.Get<double>("max_distance_m");
   o.landmark_quality.max_reprojection_error_px = q.Get<double>("max_reprojection_error_px");
   q.CheckNoUnknownKeys();
+  o.compact = root.Get<std::string>("compact");
   root.CheckNoUnknownKeys();
   root.CheckValid(o.Validate());
   return o;
@@ -130,6 +134,7 @@ std::string MapBuilderOptionsToYaml(const MapBuilderOptions& o) {
       << "  max_distance_m: " << Num(o.landmark_quality.max_distance_m) << "\n"
       << "  max_reprojection_error_px: " << Num(o.landmark_quality.max_reprojection_error_px)
       << "\n";
+  out << "compact: \"" << o.compact << "\"\n";
   return out.str();
 }
 

@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdlib>
@@ -109,12 +110,13 @@ struct GtBuild {
   MapBuilderStats stats;
   std::vector<mapstore::MissionDelta> deltas;
 };
-GtBuild BuildFromGroundTruth(const fs::path& dataset_dir) {
+GtBuild BuildFromGroundTruth(const fs::path& dataset_dir,
+                             const MapBuilderOptions& options = MapBuilderOptions()) {
   const AslDataset ds = AslDataset::Open(dataset_dir.string());
   const SensorRig rig = LoadSensorRig((dataset_dir / "rig.yaml").string());
   REQUIRE(ds.cameras().size() == 2);
   REQUIRE(!ds.ground_truth().empty());
-  MapBuilder builder(rig, MapBuilderOptions(), 42, "room-gt");
+  MapBuilder builder(rig, options, 42, "room-gt");
   GtBuild out;
   const auto& gt = ds.ground_truth();
   const auto& imu = ds.imu();
@@ -387,3 +389,87 @@ TEST_CASE("map builder: room session driven by the VIO (vilma vio --save-map)", 
   fs::remove_all(map_dir);
   fs::remove(traj);
 }
+
+namespace vilma::mapping {
+namespace {
+
+uintmax_t FolderBytes(const fs::path& root) {
+  uintmax_t bytes = 0;
+  for (const auto& e : fs::recursive_directory_iterator(root)) {
+    if (e.is_regular_file()) bytes += e.file_size();
+  }
+  return bytes;
+}
+
+// Good landmark positions in M, sorted (ids differ when short tracks get none).
+std::vector<std::array<double, 3>> GoodPositions(const mapstore::VIMap& map) {
+  std::vector<std::array<double, 3>> p;
+  const mapstore::MissionId mission = map.mission_ids().at(0);
+  for (const mapstore::LandmarkId& id : map.landmark_ids(mission)) {
+    if (map.landmark(id).quality != mapstore::LandmarkQuality::kGood) continue;
+    const Eigen::Vector3d p_M = map.LandmarkPosition_M(id);
+    p.push_back({p_M.x(), p_M.y(), p_M.z()});
+  }
+  std::sort(p.begin(), p.end());
+  return p;
+}
+
+TEST_CASE("map builder: compact maps keep every good landmark and drop free keypoints",
+          "[mapping][sim]") {
+  const fs::path dataset = RoomSession();
+  if (dataset.empty()) {
+    VILMA_SKIP("vilma-sim not built (" << VILMA_BINARY_DIR << "/bin/vilma-sim)");
+  }
+  std::map<std::string, GtBuild> builds;
+  std::map<std::string, uintmax_t> bytes;
+  for (const std::string level : {"none", "tracks", "good"}) {
+    MapBuilderOptions options;
+    options.compact = level;
+    builds[level] = BuildFromGroundTruth(dataset, options);
+    const fs::path dir = dataset / ("map_" + level);
+    mapstore::SaveMap(builds[level].map, dir.string());
+    bytes[level] = FolderBytes(dir);
+    fs::remove_all(dir);
+  }
+  WARN("map of 20 s: " << bytes["none"] / 1e6 << " MB (none), " << bytes["tracks"] / 1e6
+                       << " MB (tracks), " << bytes["good"] / 1e6 << " MB (good)");
+  CHECK(MapBuilderOptions().compact == "tracks");
+  CHECK(bytes["tracks"] * 2 < bytes["none"]);
+  CHECK(bytes["good"] * 5 < bytes["none"]);
+  const int min_observers = MapBuilderOptions().landmark_quality.min_observers;
+  for (const std::string level : {"tracks", "good"}) {
+    const GtBuild& compact = builds[level];
+    INFO(level << ": " << compact.stats.ToString());
+    CHECK(compact.stats.short_tracks > 0);
+    CHECK(compact.stats.keypoints_dropped > 0);
+    CHECK(compact.stats.landmarks_good == builds["none"].stats.landmarks_good);
+    CHECK(GoodPositions(compact.map) == GoodPositions(builds["none"].map));
+    CHECK(mapstore::CheckMapConsistency(compact.map).ok());
+    const mapstore::MissionId mission = compact.map.mission_ids().at(0);
+    std::size_t free_keypoints = 0, short_landmarks = 0, bad = 0;
+    for (const mapstore::VertexId& v : compact.map.vertex_ids(mission)) {
+      for (const mapstore::VisualFrame& f : compact.map.vertex(v).frames) {
+        for (const mapstore::LandmarkId& l : f.landmark_ids) free_keypoints += l.IsValid() ? 0 : 1;
+      }
+    }
+    for (const mapstore::LandmarkId& l : compact.map.landmark_ids(mission)) {
+      const mapstore::Landmark& landmark = compact.map.landmark(l);
+      short_landmarks +=
+          landmark.observations.size() < static_cast<std::size_t>(min_observers) ? 1 : 0;
+      bad += landmark.quality != mapstore::LandmarkQuality::kGood ? 1 : 0;
+    }
+    CHECK(free_keypoints == 0);
+    CHECK(short_landmarks == 0);
+    if (level == "good") {
+      CHECK(bad == 0);
+    } else {
+      CHECK(bad > 0);
+    }
+  }
+  MapBuilderOptions wrong;
+  wrong.compact = "yes";
+  CHECK_THAT(wrong.Validate(), Catch::Contains("compact: expected"));
+}
+
+}  // namespace
+}  // namespace vilma::mapping

@@ -1,5 +1,5 @@
 // Map summarization (docs/summarization.md): landmark_sparsify (lsparsify), the ILP landmark
-// selection and its baselines; generate_summary_map_and_save_to_disk (summary_map), the
+// selection and its baselines; compact_map, keypoints without a landmark dropped; generate_summary_map_and_save_to_disk (summary_map), the
 // `.vlocmap` localization map of the selected map that vilma-estimatord --localization-map loads.
 #include <filesystem>
 #include <iomanip>
@@ -10,6 +10,7 @@
 #include "vilma/localizer/localization_map_file.h"
 #include "vilma/localizer/localizer.h"
 #include "vilma/mapping/summarization/landmark_sparsification.h"
+#include "vilma/mapstore/compaction.h"
 
 namespace vilma::console {
 namespace {
@@ -27,7 +28,22 @@ struct SummaryMapOptions {
   }
 };
 
+struct CompactMapOptions {};
+
 void Register(CommandRegistry* registry) {
+  registry->Add(
+      Command<CompactMapOptions>("compact_map")
+          .Group("summarization")
+          .Summary("drop every keypoint without a landmark (its descriptor is most of a raw "
+                   "map's size); landmarks, observations and poses are unchanged")
+          .Access(MapAccess::kModify)
+          .Run([](CommandContext& c, const CompactMapOptions&) {
+            const mapstore::KeypointCompactionStats stats =
+                mapstore::RemoveKeypointsWithoutLandmark(&c.map());
+            c.out() << "compact_map: keypoints " << stats.keypoints_before << " -> "
+                    << stats.keypoints_after << "\n";
+          }));
+
   using L = mapping::LandmarkSparsificationOptions;
   registry->Add(
       Command<L>("landmark_sparsify")

@@ -153,6 +153,11 @@ void SelectByIlp(const LandmarkSparsificationOptions& options, const CoverageInd
 
   std::vector<int> kept_seen(num_vertices, 0);  // kept landmarks each vertex sees so far
   std::vector<int> local(num_candidates, -1);
+  // Per vertex: candidates it sees in the parts not solved yet, and in the current part.
+  std::vector<int> unsolved_seen(num_vertices), seen_here(num_vertices, 0);
+  for (int v = 0; v < num_vertices; ++v) {
+    unsolved_seen[v] = static_cast<int>(index.sees[v].size());
+  }
   std::size_t budget_left = budget;
   std::size_t candidates_left = static_cast<std::size_t>(num_candidates);
   BeginProgress(progress, "landmark ILP", ranges.size());
@@ -162,6 +167,14 @@ void SelectByIlp(const LandmarkSparsificationOptions& options, const CoverageInd
     for (int v = first_vertex; v < end_vertex; ++v) {
       columns.insert(columns.end(), homed[v].begin(), homed[v].end());
     }
+    // The vertices that see this part's landmarks, in order.
+    std::vector<int> touched;
+    for (int j : columns) {
+      for (int v : index.seen_by[j]) {
+        if (seen_here[v]++ == 0) touched.push_back(v);
+      }
+    }
+    std::sort(touched.begin(), touched.end());
     SparsificationPartition part;
     part.keyframes = static_cast<std::size_t>(end_vertex - first_vertex);
     part.candidates = columns.size();
@@ -186,18 +199,25 @@ void SelectByIlp(const LandmarkSparsificationOptions& options, const CoverageInd
         local[columns[c]] = static_cast<int>(c);
         problem.scores.push_back(index.scores[columns[c]]);
       }
-      for (int v = first_vertex; v < end_vertex; ++v) {
-        const int wanted = std::min<int>(options.min_landmarks_per_keyframe,
+      // Rows: every vertex that sees a landmark of this part, wherever the vertex lies (after
+      // loop closure a later mission's vertices see mostly the first mission's landmarks).
+      // Its remaining demand is split over the parts not solved yet in proportion to its
+      // candidates in each: share = ceil(demand * here / (here + later)).
+      for (int v : touched) {
+        const int demand = std::min<int>(options.min_landmarks_per_keyframe,
                                          static_cast<int>(index.sees[v].size())) -
                            kept_seen[v];
-        if (wanted <= 0) continue;
+        if (demand <= 0) continue;
         std::vector<int> cover;
         for (int j : index.sees[v]) {
           if (local[j] >= 0) cover.push_back(local[j]);
         }
-        if (cover.empty()) continue;  // nothing of this partition can help it
+        const int share = static_cast<int>(
+            (static_cast<int64_t>(demand) * static_cast<int64_t>(cover.size()) +
+             unsolved_seen[v] - 1) /
+            unsolved_seen[v]);
         problem.covers.push_back(std::move(cover));
-        problem.minimums.push_back(wanted);
+        problem.minimums.push_back(share);
       }
       CoverageIlpOptions ilp_options;
       ilp_options.time_limit_s = options.time_limit_s;
@@ -227,6 +247,10 @@ void SelectByIlp(const LandmarkSparsificationOptions& options, const CoverageInd
     for (int j : chosen) {
       (*keep)[j] = 1;
       for (int v : index.seen_by[j]) ++kept_seen[v];
+    }
+    for (int v : touched) {
+      unsolved_seen[v] -= seen_here[v];
+      seen_here[v] = 0;
     }
     part.kept = chosen.size();
     budget_left -= std::min(budget_left, part.kept);

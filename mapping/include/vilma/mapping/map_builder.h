@@ -66,7 +66,10 @@ struct MapBuilderStats {
   int64_t tracked_keypoints = 0;    // keypoints that continue a track
   int64_t tracks = 0;               // tracks with >= 2 observations
   int64_t single_observations = 0;  // tracks seen once (no landmark)
-  int64_t landmarks = 0;            // stored (good + bad)
+  int64_t short_tracks = 0;         // compact: tracks below min_observers (no landmark)
+  int64_t bad_not_stored = 0;       // compact: bad landmarks not stored (in landmarks_bad)
+  int64_t keypoints_dropped = 0;    // compact: keypoints without a landmark removed
+  int64_t landmarks = 0;            // stored (good + bad; compact: good only)
   int64_t landmarks_good = 0;
   int64_t landmarks_bad = 0;
   int64_t verdicts[kNumLandmarkVerdicts] = {};  // per LandmarkVerdict (index = enum value)

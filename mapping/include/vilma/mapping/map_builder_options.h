@@ -46,6 +46,18 @@ struct MapBuilderOptions {
   localizer::KeyframeFeatureOptions features;
   TriangulationOptions triangulation;
   LandmarkQualityOptions landmark_quality;
+  // Compact maps (docs/mapping.md "Compact maps"), what Finish() stores:
+  //   "none"    every keypoint, a landmark for every track of >= 2 observations (good or bad);
+  //   "tracks"  landmarks for tracks of >= landmark_quality.min_observers observations only
+  //             (shorter ones would be bad: too few observers), keypoints without a landmark
+  //             dropped;
+  //   "good"    as "tracks", and only the good landmarks (all localization and optimization
+  //             use), so only their keypoints stay: the smallest maps, but loop closure then
+  //             has only those keypoints as query features and kfh's shared-landmark rule
+  //             sees fewer landmarks (docs/mapping.md has the figures).
+  std::string compact = "tracks";
+  bool StoresShortTracks() const { return compact == "none"; }
+  bool StoresBadLandmarks() const { return compact != "good"; }
   // Empty when valid, else "field: expectation" (field path with sections).
   std::string Validate() const;
 };

@@ -14,9 +14,12 @@
 // (missions in order, each along its chain); each landmark belongs to the partition of its
 // first observer; a partition closes at the vertex where its landmarks reach
 // partition_max_landmarks. Partitions are solved in order, each with the budget share of its
-// landmarks (rounded, unused budget carried on); a keyframe's landmarks kept by earlier
-// partitions count toward its minimum. One ILP per partition keeps the solve time bounded
-// (time_limit_s each) at the price of not trading landmarks across partition borders.
+// landmarks (rounded, unused budget carried on). Every vertex that sees a partition's landmarks
+// gets a row in it, wherever the vertex lies (after loop closure, later missions see mostly the
+// first mission's landmarks): its demand left after the earlier partitions, split over the
+// partitions not solved yet in proportion to its landmarks in each (rounded up). One ILP per
+// partition keeps the solve time bounded (time_limit_s each) at the price of not trading
+// landmarks across partition borders.
 //
 // Every landmark that is not kept is removed — the bad and unknown ones too (localization and
 // optimization use good landmarks only); their keypoints stay (without a landmark).
@@ -39,7 +42,7 @@ struct LandmarkSparsificationOptions {
   int min_landmarks_per_keyframe = 30;  // maplab's sparsification_min_keypoints_per_keyframe
   int partition_max_landmarks = 5000;   // landmarks per ILP
   double time_limit_s = 60.0;           // per partition's ILP [s]; reaching it fails the command
-  double mip_gap = 1e-3;                // relative optimality gap the ILP stops at
+  double mip_gap = 1e-2;                // relative optimality gap the ILP stops at
   uint64_t random_seed = 1;             // method random
   std::string Validate() const;         // "" or "field: expectation"
 };
