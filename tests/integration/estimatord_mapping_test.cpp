@@ -393,3 +393,55 @@ TEST_CASE("vilma-estimatord: a filter reset ends the mission; the next frames ar
 
 }  // namespace
 }  // namespace vilma
+
+namespace vilma {
+namespace {
+
+TEST_CASE("mapstored runs config/postprocess.vilma on a streamed mission: lc, kfh, optvi, .vlocmap",
+          "[integration][daemon][mapping]") {
+  if (!HaveBinaries()) return;
+  const RoomData& room = Room();
+  const std::string dir = FreshDir("post_process");
+  const std::string root = dir + "/maps";
+  const std::string url = test::UniqueLcmUrl();
+  const std::string config = StreamingConfig(dir, "room_pp");
+  test::ChildProcess store({kMapstored, "--root", root, "--lcm-url", url, "--config",
+                            std::string(VILMA_SOURCE_DIR) + "/config/mapstored.yaml"},
+                           dir + "/mapstored.out");
+  REQUIRE(test::WaitForOutput(dir + "/mapstored.out", "ready", 5.0));
+  test::ChildProcess daemon(
+      {kDaemon, "--config", config, "--rig", room.dataset + "/rig.yaml", "--lcm-url", url},
+      dir + "/daemon.out");
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // subscribed
+  test::ChildProcess replay({kReplay, room.dataset, "--lcm-url", url, "--quiet"},
+                            dir + "/replay.out");
+  REQUIRE(replay.Wait(60.0) == 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  daemon.Signal(SIGTERM);
+  REQUIRE(daemon.Wait(30.0) == 0);
+  const bool processed =
+      test::WaitForOutput(dir + "/mapstored.out", "post-processing room_pp: ok", 180.0);
+  const std::string log = test::ReadTextFile(root + "/room_pp.processed.log");
+  INFO(test::ReadTextFile(dir + "/mapstored.out") << log);
+  REQUIRE(processed);
+  for (const std::string command : {"> lc", "> kfh", "> rtl", "> optvi", "> lsparsify",
+                                    "> summary_map"}) {
+    CHECK(log.find(command) != std::string::npos);
+  }
+  store.Signal(SIGTERM);
+  CHECK(store.Wait(10.0) == 0);
+
+  const VIMap raw = mapstore::LoadMap(root + "/room_pp");
+  const VIMap result = mapstore::LoadMap(root + "/room_pp.processed");
+  CHECK(raw.num_vertices() > 100);
+  CHECK(result.num_vertices() * 3 < raw.num_vertices());  // keyframed
+  CHECK(mapstore::CheckMapConsistency(result).ok());
+  // The localization map beside it loads (vilma locmap info reads and checks it).
+  test::ChildProcess info({kBin + "vilma", "locmap", "info", root + "/room_pp.processed.vlocmap"},
+                          dir + "/info.out");
+  CHECK(info.Wait(30.0) == 0);
+  CHECK(test::ReadTextFile(dir + "/info.out").find("landmarks") != std::string::npos);
+}
+
+}  // namespace
+}  // namespace vilma

@@ -160,13 +160,19 @@ TEST_CASE("vilma-mapstored rejects bad arguments and prints help", "[integration
   CHECK(ReadTextFile(dir + "/bad.log").find("unknown_key") != std::string::npos);
 }
 
-TEST_CASE("mapstored post-processes a finished mission with config/postprocess.vilma",
+TEST_CASE("mapstored post-processes a finished mission with a console script",
           "[integration][mapstore_stream]") {
   if (!HaveBinaries()) return;
   const std::string dir = FreshDir("mapstored_post_process");
   const std::string root = dir + "/maps";
   const std::string url = UniqueLcmUrl(false);
-  const std::string config = std::string(VILMA_SOURCE_DIR) + "/config/mapstored.yaml";
+  // The synthetic mission is random data (no geometry for lc or optvi): a script that loads,
+  // checks and saves it tests the mechanism; config/postprocess.vilma on a real mission is
+  // tested in estimatord_mapping_test.cpp.
+  std::ofstream(dir + "/check.vilma") << "load ${map} --map_key=mission\nmap_stats\n"
+                                         "check_map_consistency\nsave --out=${out} --overwrite\n";
+  const std::string config = dir + "/mapstored.yaml";
+  std::ofstream(config) << "post_process_script: check.vilma\n";
   ChildProcess store({kMapstored, "--root", root, "--lcm-url", url, "--config", config},
                      dir + "/mapstored.log");
   REQUIRE(WaitForOutput(dir + "/mapstored.log", "ready", 5.0));
