@@ -7,7 +7,8 @@
 # to its ground truth, posyaw).
 # Rows: pruning fraction 0, 0.5, 0.75, 0.9, 0.95, 0.98; for ilp, random and most_observed
 # (landmark_sparsify), each without and with kfh before it. Columns: landmarks kept, .vlocmap
-# size, recall. Then the daemon in LOC mode on room-s5 against the full map and a summarized one.
+# size, recall. Then the daemon in LOC mode on room-s5 against the full map and summarized ones
+# (global RMSE with the same alignment, share of VILMA_LOC fixes within 0.5 m).
 # Prints markdown tables; writes $work/summarization.csv and $work/summarization.png.
 #
 # Usage: scripts/bench-summarization.sh [--every N] [--fractions "0 0.5 ..."]
@@ -109,6 +110,32 @@ for db in full kfh; do
       }' "$csv"
   done
 done
+# 4. The daemon (LOC mode) on room-s5 against the full map and summarized ones.
+[ -e "$work/$query.lcmlog" ] ||
+  "$bin/vilma-replay" "$datasets/$query" --to-log "$work/$query.lcmlog" --quiet
+echo
+echo "| vilma-estimatord LOC mode, room-s5 against | .vlocmap MB | global RMSE [m] | VILMA_LOC fixes within 0.5 m |"
+echo "|---|---:|---:|---|"
+for variant in full-ilp-0 kfh-ilp-0 full-ilp-0.9 kfh-ilp-0.9 kfh-ilp-0.95; do
+  [ -e "$work/$variant.vlocmap" ] || continue
+  "$bin/vilma-estimatord" --rig "$datasets/$query/rig.yaml" --input-log "$work/$query.lcmlog" \
+    --localization-map "$work/$variant.vlocmap" --lcm-url "file://$work/$variant-loc.lcm?mode=w" \
+    > "$work/$variant-loc.out" 2>&1 || { cat "$work/$variant-loc.out" >&2; exit 1; }
+  "$bin/vilma-lcm-poses" "$work/$variant-loc.lcm" --out "$work/$variant-pose.txt" > /dev/null
+  "$bin/vilma-lcm-poses" "$work/$variant-loc.lcm" --channel VILMA_LOC \
+    --out "$work/$variant-locfix.txt" > /dev/null 2>&1 || true
+  "$bin/vilma" eval --gt "$(gt_of "$query")" --est "$work/$variant-pose.txt" \
+    --align-from "$work/alignment.json" > "$work/$variant-pose.eval"
+  within="no fix"
+  if [ -s "$work/$variant-locfix.txt" ]; then
+    "$bin/vilma" eval --gt "$(gt_of "$query")" --est "$work/$variant-locfix.txt" \
+      --align-from "$work/alignment.json" --within 0.5 > "$work/$variant-locfix.eval"
+    within=$(grep '^within' "$work/$variant-locfix.eval" | head -1)
+  fi
+  mb=$(awk -v b="$(stat -c %s "$work/$variant.vlocmap")" 'BEGIN { printf "%.2f", b / 1e6 }')
+  echo "| $variant | $mb | $(ate_rmse "$work/$variant-pose.eval") | $within |"
+done
+echo
 py=/usr/bin/python3; [ -x "$py" ] || py=python3  # Debian's, with python3-matplotlib
 "$py" "$repo_dir/scripts/plot_summarization.py" "$csv" "$work/summarization.png" ||
   echo "(no plot: python3-matplotlib missing)"

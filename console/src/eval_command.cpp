@@ -20,9 +20,6 @@
 
 extern char** environ;
 
-#ifndef VILMA_SOURCE_DIR
-#define VILMA_SOURCE_DIR "."
-#endif
 
 namespace vilma::console {
 namespace {
@@ -99,10 +96,20 @@ std::string Fixed(double v, int decimals) {
   return buf;
 }
 
+// The plot script's folder: $VILMA_SCRIPTS_DIR, else share/vilma/scripts beside the running
+// executable's bin/ folder — <prefix>/share/vilma/scripts when installed (cmake --install), and
+// <build>/share/vilma/scripts in a build tree (CMake copies the script there), so that no path
+// of the source tree is compiled in.
 std::string ScriptsDir() {
   const char* env = std::getenv("VILMA_SCRIPTS_DIR");
   if (env != nullptr && env[0] != '\0') return env;
-  return std::string(VILMA_SOURCE_DIR) + "/scripts";
+  char exe[4096];
+  const ssize_t n = ::readlink("/proc/self/exe", exe, sizeof(exe) - 1);
+  if (n <= 0) return "share/vilma/scripts";
+  exe[n] = '\0';
+  std::string dir(exe);
+  dir = dir.substr(0, dir.find_last_of('/'));  // .../bin
+  return dir + "/../share/vilma/scripts";
 }
 
 bool FileExists(const std::string& path) {
@@ -144,7 +151,9 @@ void RenderPlot(const EvalCommandOptions& options, const EvalResult& result) {
   const std::string script = ScriptsDir() + "/plot_trajectory.py";
   if (!FileExists(script)) {
     throw InputError(FormatInputError(
-        script, "", "expected the plot script (set VILMA_SCRIPTS_DIR to the scripts folder)"));
+        script, "",
+        "expected the plot script, installed with the programs (share/vilma/scripts beside "
+        "bin/), or set VILMA_SCRIPTS_DIR to the folder holding plot_trajectory.py"));
   }
   char tmp_template[] = "/tmp/vilma_eval_plot_XXXXXX";
   const char* tmpdir = std::getenv("TMPDIR");

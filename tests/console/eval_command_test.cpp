@@ -239,6 +239,36 @@ TEST_CASE("eval --plot writes a PNG", "[eval]") {
   CHECK(bytes.substr(0, 8) == std::string("\x89PNG\r\n\x1a\n", 8));
 }
 
+TEST_CASE("an installed tree runs vilma eval --plot with its own copy of the plot script",
+          "[eval]") {
+  std::string out;
+  if (Run("/usr/bin/python3 -c 'import matplotlib' 2>/dev/null", &out) != 0 &&
+      Run("python3 -c 'import matplotlib' 2>/dev/null", &out) != 0) {
+    VILMA_SKIP("python3 matplotlib not importable (Debian package python3-matplotlib)");
+  }
+  Files f;
+  WriteInputs(f);
+  const std::string prefix = f.dir + "/prefix";
+  REQUIRE(Run("cmake --install '" + std::string(VILMA_BINARY_DIR) + "' --prefix '" + prefix +
+                  "' 2>&1",
+              &out) == 0);
+  INFO(out);
+  const std::string vilma = prefix + "/bin/vilma";
+  const std::string script = prefix + "/share/vilma/scripts/plot_trajectory.py";
+  REQUIRE(::access(vilma.c_str(), X_OK) == 0);
+  REQUIRE(::access(script.c_str(), R_OK) == 0);
+  const std::string png = f.dir + "/installed.png";
+  const std::string command = "env -u VILMA_SCRIPTS_DIR '" + vilma + "' eval --gt " + f.gt +
+                              " --est " + f.est + " --plot " + png + " 2>&1";
+  CHECK(Run(command, &out) == 0);
+  CHECK(Slurp(png).substr(0, 8) == std::string("\x89PNG\r\n\x1a\n", 8));
+  // The installed program uses the installed script, not the source or build tree's: without
+  // it, --plot fails naming the path it looked for.
+  std::filesystem::remove(script);
+  CHECK(Run(command, &out) == kExitInputError);
+  CHECK_THAT(out, Catch::Contains(prefix + "/bin/../share/vilma/scripts/plot_trajectory.py"));
+}
+
 TEST_CASE("the vilma binary dispatches eval", "[eval]") {
   const std::string binary = std::string(VILMA_BINARY_DIR) + "/bin/vilma";
   if (::access(binary.c_str(), X_OK) != 0) {
