@@ -10,6 +10,7 @@
 #include <thread>
 #include <vector>
 
+#include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
 #include "vilma/daemon/daemon_options.h"
@@ -20,41 +21,41 @@ namespace {
 constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2, kExitMapNotSaved = 3;
 
 void PrintHelp() {
-  std::cout <<
-      "usage: vilma-estimatord [--config daemon.yaml] [--rig rig.yaml] [--lcm-url URL]\n"
-      "                        [--channel-suffix S] [--input-log FILE] [--save-map DIR]\n"
-      "                        [--localization-map FILE|MAPDIR] [--print-config]\n"
-      "                        [--fault-stall-filter-after N] [--fault-reset-filter-at N]\n"
-      "                        [--help]\n"
-      "\n"
-      "Realtime visual-inertial odometry on LCM: subscribes to the camera and IMU channels,\n"
-      "publishes VILMA_ODOM (pose_t T_M_I, every frame) and VILMA_STATUS (status_t, 1 Hz).\n"
-      "Runs under systemd as Type=notify with a watchdog (config/systemd/, docs/daemon.md).\n"
-      "\n"
-      "  --config FILE       daemon options (default: built-in = config/daemon.yaml)\n"
-      "  --rig FILE          sensor rig YAML (overrides 'rig' of the config; required)\n"
-      "  --lcm-url URL       LCM provider (default $LCM_DEFAULT_URL or\n"
-      "                      udpm://239.255.76.67:7667?ttl=0; recv_buf_size is added)\n"
-      "  --channel-suffix S  appended to every channel name\n"
-      "  --input-log FILE    read an lcm-logger file instead of subscribing: log order, no\n"
-      "                      pacing, no drops (blocking), same output on every run; output on\n"
-      "                      --lcm-url; exits at the end of the log\n"
-      "  --save-map DIR      build a VI-map mission (map-builder stage, mapping.* options) and\n"
-      "                      save it into DIR (absent or empty) at the end of the log or on\n"
-      "                      SIGTERM; the map builder's Finish and the save come after the\n"
-      "                      pipeline's flush and take longer for long missions (about 1 s\n"
-      "                      per 10 min of mapping; TimeoutStopSec in the systemd unit)\n"
-      "  --localization-map FILE|MAPDIR   LOC mode: localize against this localization map\n"
-      "                      file or VI-map folder (localization.* options); publishes\n"
-      "                      VILMA_POSE (T_G_I) every frame once T_G_M is known\n"
-      "  --print-config      print the effective options and exit\n"
-      "  --fault-stall-filter-after N   test: the filter thread stalls after N frames\n"
-      "                      (the systemd watchdog is then no longer petted)\n"
-      "  --fault-reset-filter-at N      test: the filter resets at its N-th frame, as on a\n"
-      "                      failed health check (the map builder starts a new mission)\n"
-      "\n"
-      "SIGTERM / SIGINT: stop, flush, finish the mission, exit 0. Exit status: 0 OK, 1 bad\n"
-      "input (file, field), 2 bad command line, 3 the map could not be saved (--save-map).\n";
+  std::cout
+      << "usage: vilma-estimatord [--config daemon.yaml] [--rig rig.yaml] [--lcm-url URL]\n"
+         "                        [--channel-suffix S] [--input-log FILE] [--save-map DIR]\n"
+         "                        [--localization-map FILE|MAPDIR] [--print-config]\n"
+         "                        [--fault-stall-filter-after N] [--fault-reset-filter-at N]\n"
+         "                        [--help]\n"
+         "\n"
+         "Realtime visual-inertial odometry on LCM: subscribes to the camera and IMU channels,\n"
+         "publishes VILMA_ODOM (pose_t T_M_I, every frame) and VILMA_STATUS (status_t, 1 Hz).\n"
+         "Runs under systemd as Type=notify with a watchdog (config/systemd/, docs/daemon.md).\n"
+         "\n"
+         "  --config FILE       daemon options (default: built-in = config/daemon.yaml)\n"
+         "  --rig FILE          sensor rig YAML (overrides 'rig' of the config; required)\n"
+         "  --lcm-url URL       LCM provider (default $LCM_DEFAULT_URL or\n"
+         "                      udpm://239.255.76.67:7667?ttl=0; recv_buf_size is added)\n"
+         "  --channel-suffix S  appended to every channel name\n"
+         "  --input-log FILE    read an lcm-logger file instead of subscribing: log order, no\n"
+         "                      pacing, no drops (blocking), same output on every run; output on\n"
+         "                      --lcm-url; exits at the end of the log\n"
+         "  --save-map DIR      build a VI-map mission (map-builder stage, mapping.* options) and\n"
+         "                      save it into DIR (absent or empty) at the end of the log or on\n"
+         "                      SIGTERM; the map builder's Finish and the save come after the\n"
+         "                      pipeline's flush and take longer for long missions (about 1 s\n"
+         "                      per 10 min of mapping; TimeoutStopSec in the systemd unit)\n"
+         "  --localization-map FILE|MAPDIR   LOC mode: localize against this localization map\n"
+         "                      file or VI-map folder (localization.* options); publishes\n"
+         "                      VILMA_POSE (T_G_I) every frame once T_G_M is known\n"
+         "  --print-config      print the effective options and exit\n"
+         "  --fault-stall-filter-after N   test: the filter thread stalls after N frames\n"
+         "                      (the systemd watchdog is then no longer petted)\n"
+         "  --fault-reset-filter-at N      test: the filter resets at its N-th frame, as on a\n"
+         "                      failed health check (the map builder starts a new mission)\n"
+         "\n"
+         "SIGTERM / SIGINT: stop, flush, finish the mission, exit 0. Exit status: 0 OK, 1 bad\n"
+         "input (file, field), 2 bad command line, 3 the map could not be saved (--save-map).\n";
 }
 
 }  // namespace
@@ -66,70 +67,58 @@ int main(int argc, char** argv) {
   long long reset_at = -1;
   const std::vector<std::string> args(argv + 1, argv + argc);
   try {
-    for (std::size_t i = 0; i < args.size(); ++i) {
-      std::string a = args[i], value;
-      bool inline_value = false;
-      const std::size_t eq = a.find('=');
-      if (a.rfind("--", 0) == 0 && eq != std::string::npos) {
-        value = a.substr(eq + 1);
-        a = a.substr(0, eq);
-        inline_value = true;
+    // Frame counts of the fault-injection options (tests).
+    const auto frame_count = [](vilma::ArgCursor& arg) {
+      const std::string v = arg.Value();
+      std::size_t used = 0;
+      long long n = -1;
+      try {
+        n = std::stoll(v, &used);
+      } catch (const std::exception&) {
+        used = 0;
       }
-      auto next = [&]() -> std::string {
-        if (inline_value) return value;
-        if (i + 1 >= args.size()) throw std::invalid_argument(a + ": expected a value");
-        return args[++i];
-      };
+      if (used != v.size() || n < 0) {
+        throw vilma::UsageError(arg.name() + ": expected a frame count >= 0, got '" + v + "'");
+      }
+      return n;
+    };
+    for (vilma::ArgCursor arg(args); arg.Next();) {
+      const std::string& a = arg.name();
       if (a == "--help" || a == "-h") {
+        arg.Flag();
         PrintHelp();
         return kExitOk;
       } else if (a == "--config") {
-        config_path = next();
+        config_path = arg.Value();
       } else if (a == "--rig") {
-        rig_path = next();
+        rig_path = arg.Value();
       } else if (a == "--lcm-url") {
-        lcm_url = next();
+        lcm_url = arg.Value();
         have_url = true;
       } else if (a == "--channel-suffix") {
-        suffix = next();
+        suffix = arg.Value();
         have_suffix = true;
       } else if (a == "--input-log") {
-        input_log = next();
+        input_log = arg.Value();
       } else if (a == "--save-map") {
-        save_map = next();
-        if (save_map.empty()) throw std::invalid_argument("--save-map: expected a folder");
+        save_map = arg.Value();
+        if (save_map.empty()) throw vilma::UsageError("--save-map: expected a folder");
       } else if (a == "--localization-map") {
-        loc_map = next();
-        if (loc_map.empty()) throw std::invalid_argument("--localization-map: expected a file or folder");
+        loc_map = arg.Value();
+        if (loc_map.empty()) {
+          throw vilma::UsageError("--localization-map: expected a file or folder");
+        }
       } else if (a == "--print-config") {
-        print_config = true;
+        print_config = arg.Flag();
       } else if (a == "--fault-stall-filter-after") {
-        const std::string v = next();
-        std::size_t used = 0;
-        try {
-          stall_after = std::stoll(v, &used);
-        } catch (const std::exception&) {
-          used = 0;
-        }
-        if (used != v.size() || stall_after < 0) {
-          throw std::invalid_argument("--fault-stall-filter-after: expected a frame count >= 0");
-        }
+        stall_after = frame_count(arg);
       } else if (a == "--fault-reset-filter-at") {
-        const std::string v = next();
-        std::size_t used = 0;
-        try {
-          reset_at = std::stoll(v, &used);
-        } catch (const std::exception&) {
-          used = 0;
-        }
-        if (used != v.size() || reset_at < 0) {
-          throw std::invalid_argument("--fault-reset-filter-at: expected a frame count >= 0");
-        }
+        reset_at = frame_count(arg);
       } else {
-        throw std::invalid_argument("unknown argument '" + a + "'");
+        throw vilma::UsageError("unknown argument '" + arg.word() + "'");
       }
     }
-  } catch (const std::invalid_argument& e) {
+  } catch (const vilma::UsageError& e) {
     std::cerr << "vilma-estimatord: " << e.what() << "\n(see 'vilma-estimatord --help')\n";
     return kExitUsage;
   }
@@ -160,8 +149,7 @@ int main(int argc, char** argv) {
     }
     options.fault_stall_filter_after = stall_after;
     options.fault_reset_filter_at = reset_at;
-    vilma::ThrowIfInvalid(options.Validate(),
-                          config_path.empty() ? "command line" : config_path);
+    vilma::ThrowIfInvalid(options.Validate(), config_path.empty() ? "command line" : config_path);
     if (options.rig.empty()) {
       throw vilma::InputError("no sensor rig: give --rig FILE (or 'rig' in --config)");
     }
@@ -185,7 +173,8 @@ int main(int argc, char** argv) {
       timespec timeout{0, 100000000};
       const int sig = sigtimedwait(&signals, nullptr, &timeout);
       if (sig == SIGTERM || sig == SIGINT) {
-        std::fprintf(stderr, "vilma-estimatord: %s: stopping\n", sig == SIGTERM ? "SIGTERM" : "SIGINT");
+        std::fprintf(stderr, "vilma-estimatord: %s: stopping\n",
+                     sig == SIGTERM ? "SIGTERM" : "SIGINT");
         daemon->RequestStop();
       }
     }
@@ -197,7 +186,8 @@ int main(int argc, char** argv) {
             << summary.poses_published << " poses published, " << summary.malformed_messages
             << " malformed messages, " << summary.drops << " drops\n"
             << summary.report << std::flush;
-  if (summary.mapping) std::cout << "vilma-estimatord: " << summary.map_report << "\n" << std::flush;
+  if (summary.mapping)
+    std::cout << "vilma-estimatord: " << summary.map_report << "\n" << std::flush;
   if (!summary.map_error.empty()) return kExitMapNotSaved;
   return kExitOk;
 }

@@ -416,3 +416,40 @@ TEST_CASE("vilma-estimatord: READY and watchdog for systemd; a stalled filter st
 
 }  // namespace
 }  // namespace vilma
+
+namespace vilma {
+namespace {
+
+TEST_CASE("vilma-estimatord's command line: --print-config, and usage errors exit 2",
+          "[integration][daemon]") {
+  if (!test::FileExists(kDaemon)) {
+    VILMA_SKIP(kDaemon << " not built");
+  }
+  const std::string dir = test::ScratchDir() + "/estimatord_cli";
+  std::filesystem::create_directories(dir);
+  // The effective options, exit 0.
+  test::ChildProcess print(
+      {kDaemon, "--print-config", "--rig", std::string(VILMA_SOURCE_DIR) + "/config/euroc-rig.yaml"},
+      dir + "/print.out");
+  CHECK(print.Wait(10.0) == 0);
+  CHECK(test::ReadTextFile(dir + "/print.out").find("mapping:") != std::string::npos);
+  // A flag given a value is an error, not a yes; so is a bad value or an unknown option.
+  const std::vector<std::pair<std::vector<std::string>, std::string>> cases = {
+      {{kDaemon, "--print-config=no"}, "--print-config: takes no value"},
+      {{kDaemon, "--fault-reset-filter-at", "x"}, "expected a frame count >= 0, got 'x'"},
+      {{kDaemon, "--config"}, "--config: expected a value"},
+      {{kDaemon, "--rig=a.yaml", "--bogus"}, "unknown argument '--bogus'"},
+  };
+  for (const auto& [argv, message] : cases) {
+    test::ChildProcess p(argv, dir + "/usage.out");
+    CHECK(p.Wait(10.0) == 2);
+    const std::string text = test::ReadTextFile(dir + "/usage.out");
+    INFO(text);
+    CHECK(text.find(message) != std::string::npos);
+    CHECK(text.find("see 'vilma-estimatord --help'") != std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace vilma
