@@ -34,7 +34,7 @@ VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datas
 # daemon.yaml and map_builder.yaml copies for one variant: CAMERAS ("[]" or "[0]") and COMPACT.
 make_config() {
   local name=$1 cameras=$2 compact=$3
-  sed -e "s/^cameras: \[\]/cameras: $cameras/" -e "s/^compact: \"tracks\"/compact: \"$compact\"/" \
+  sed -e "s/^cameras: \[\]/cameras: $cameras/" -e "s/^compact: \"[a-z]*\"/compact: \"$compact\"/" \
     "$repo_dir/config/map_builder.yaml" > "$work/map_builder-$name.yaml"
   sed -e "s|^  map_builder: \"\"|  map_builder: \"map_builder-$name.yaml\"|" \
     "$repo_dir/config/daemon.yaml" > "$work/daemon-$name.yaml"
@@ -91,7 +91,7 @@ if [ "$multi" = 1 ]; then
       ln -s "$work/$s-$name" "$work/maps-$compact/$s"
     done
     rm -rf "$work/traj-$compact" && mkdir -p "$work/traj-$compact"
-    "$bin/vilma" console -c "load_merge_all_maps $work/maps-$compact --map_key=db; aam; lc; rtl; \
+    "$bin/vilma" console -c "load_merge_all_maps $work/maps-$compact --map_key=db; aam; lc; rtl; ms; \
       ettc --out=$work/traj-$compact --format=asl --frame=G; summary_map $work/db-$compact.vlocmap" \
       > "$work/db-$compact.out" 2>&1 || { cat "$work/db-$compact.out" >&2; exit 1; }
     mission0=$(grep -o '^[0-9a-f]\{8\} ' "$work/db-$compact.out" | head -1 | tr -d ' ')

@@ -32,7 +32,7 @@ struct ConsoleTestMaps {
 
 inline std::string BinDir() { return std::string(VILMA_BINARY_DIR) + "/bin"; }
 
-// Seconds of the last change of the programs that make the maps.
+// Seconds of the last change of the programs, script and configs that make the maps.
 inline std::string ProgramStamp() {
   std::ostringstream stamp;
   for (const char* name : {"vilma-sim", "vilma-replay", "vilma-estimatord"}) {
@@ -40,6 +40,13 @@ inline std::string ProgramStamp() {
     const std::string path = BinDir() + "/" + name;
     if (::stat(path.c_str(), &info) != 0) throw std::runtime_error(path + " is not built");
     stamp << name << " " << info.st_mtime << "\n";
+  }
+  // ... and of what decides the maps' content besides the programs.
+  for (const char* file : {"tests/console_plugins/make_test_maps.sh", "config/map_builder.yaml",
+                           "config/daemon.yaml"}) {
+    struct stat info {};
+    const std::string path = std::string(VILMA_SOURCE_DIR) + "/" + file;
+    if (::stat(path.c_str(), &info) == 0) stamp << file << " " << info.st_mtime << "\n";
   }
   return stamp.str();
 }

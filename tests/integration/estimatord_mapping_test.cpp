@@ -434,7 +434,9 @@ TEST_CASE("mapstored runs config/postprocess.vilma on a streamed mission: lc, kf
   const VIMap raw = mapstore::LoadMap(root + "/room_pp");
   const VIMap result = mapstore::LoadMap(root + "/room_pp.processed");
   CHECK(raw.num_vertices() > 100);
-  CHECK(result.num_vertices() * 3 < raw.num_vertices());  // keyframed
+  // Keyframed: on the default compact ("good") map of 15 s kfh's shared-landmark rule keeps
+  // about every other vertex (every 10th on a map that keeps its bad landmarks).
+  CHECK(result.num_vertices() * 3 < raw.num_vertices() * 2);
   CHECK(mapstore::CheckMapConsistency(result).ok());
   // The localization map beside it loads (vilma locmap info reads and checks it).
   test::ChildProcess info({kBin + "vilma", "locmap", "info", root + "/room_pp.processed.vlocmap"},

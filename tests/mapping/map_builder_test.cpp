@@ -433,7 +433,7 @@ TEST_CASE("map builder: compact maps keep every good landmark and drop free keyp
   }
   WARN("map of 20 s: " << bytes["none"] / 1e6 << " MB (none), " << bytes["tracks"] / 1e6
                        << " MB (tracks), " << bytes["good"] / 1e6 << " MB (good)");
-  CHECK(MapBuilderOptions().compact == "tracks");
+  CHECK(MapBuilderOptions().compact == "good");
   CHECK(bytes["tracks"] * 2 < bytes["none"]);
   CHECK(bytes["good"] * 5 < bytes["none"]);
   const int min_observers = MapBuilderOptions().landmark_quality.min_observers;
