@@ -172,3 +172,37 @@ TEST_CASE("lsparsify: invalid options throw and leave the map unchanged", "[lspa
 
 }  // namespace
 }  // namespace vilma::mapping
+
+namespace vilma::mapping {
+namespace {
+
+TEST_CASE("lsparsify: an ILP that reaches its time limit fails with a message; map unchanged",
+          "[lsparsify]") {
+  mapstore::testing::SyntheticMapOptions o;
+  o.missions = 1;
+  o.vertices_per_mission = 400;
+  o.landmarks_per_vertex = 10;
+  o.observations_per_landmark = 5;
+  o.extra_edges = false;
+  VIMap map = mapstore::testing::MakeSyntheticMap(o);
+  for (const LandmarkId& l : Landmarks(map)) map.landmark(l).quality = LandmarkQuality::kGood;
+  const std::vector<LandmarkId> before = Landmarks(map);
+  LandmarkSparsificationOptions options = Options("ilp", 300);
+  options.min_landmarks_per_keyframe = 5;
+  options.time_limit_s = 0.001;
+  options.mip_gap = 0.0;
+  CHECK_THROWS_WITH(SparsifyLandmarks(options, &map),
+                    Catch::Contains("partition 0 of 1 (4000 landmarks, 400 keyframes)") &&
+                        Catch::Contains("time limit") &&
+                        Catch::Contains("--lsparsify_time_limit_s") &&
+                        Catch::Contains("the map is unchanged"));
+  CHECK(Landmarks(map) == before);
+  // With time, the same program is solved.
+  options.time_limit_s = 60.0;
+  options.mip_gap = 0.01;
+  const LandmarkSparsificationSummary s = SparsifyLandmarks(options, &map);
+  CHECK(s.landmarks_after == 300);
+}
+
+}  // namespace
+}  // namespace vilma::mapping
