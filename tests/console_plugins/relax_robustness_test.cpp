@@ -2,8 +2,11 @@
 // deliberately wrong ones (places that "looked alike": an identity relative pose between
 // vertices far apart); `relax` (switchable constraints) switches the wrong ones off and the
 // vertex ATE stays within 10 % of the clean run.
+// At map scale: VILMA_RELAX_MAP=<a daemon map folder> VILMA_RELAX_DATASET=<its dataset> runs the
+// same test on that map (e.g. the 90 s room of scripts/bench-optvi.sh; docs/loop-closure.md).
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <cstdlib>
 #include <random>
 
 #include "console_plugins/test_maps.h"
@@ -42,10 +45,21 @@ double VertexAte(const mapstore::VIMap& map, const std::string& dataset) {
 
 TEST_CASE("relax switches off 20 % wrong loop closures; the ATE stays within 10 % of clean",
           "[relax]") {
-  const auto& maps = test::TestMaps();
+  std::string map_folder, dataset, lc = "lc --lc_min_time_gap_s=3";  // a 10 s session
+  const char* env_map = std::getenv("VILMA_RELAX_MAP");
+  const char* env_dataset = std::getenv("VILMA_RELAX_DATASET");
+  if (env_map != nullptr && env_dataset != nullptr) {
+    map_folder = env_map;
+    dataset = env_dataset;
+    lc = "lc";
+  } else {
+    const auto& maps = test::TestMaps();
+    map_folder = maps.session0_map;
+    dataset = maps.session0_dataset;
+  }
   Fixture f;
-  REQUIRE(f.Run("load " + maps.session0_map).ok());
-  REQUIRE(f.Run("lc --lc_min_time_gap_s=3").ok());
+  REQUIRE(f.Run("load " + map_folder).ok());
+  REQUIRE(f.Run(lc).ok());
   mapstore::VIMap clean = f.map().Clone();
   const mapstore::MissionId mission = clean.mission_ids().at(0);
   std::vector<mapstore::EdgeId> loops;
@@ -79,8 +93,8 @@ TEST_CASE("relax switches off 20 % wrong loop closures; the ATE stays within 10 
 
   const mapping::RelaxSummary clean_summary = mapping::RelaxPoseGraph({}, &clean);
   const mapping::RelaxSummary injected_summary = mapping::RelaxPoseGraph({}, &injected);
-  const double ate_clean = VertexAte(clean, maps.session0_dataset);
-  const double ate_injected = VertexAte(injected, maps.session0_dataset);
+  const double ate_clean = VertexAte(clean, dataset);
+  const double ate_injected = VertexAte(injected, dataset);
   INFO("clean: " << clean_summary.Report() << "\ninjected: " << injected_summary.Report()
                  << "\nATE clean " << ate_clean << " m, with " << wrong.size() << " wrong of "
                  << loops.size() + wrong.size() << " loops " << ate_injected << " m");
