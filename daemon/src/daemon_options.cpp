@@ -54,6 +54,7 @@ std::string MapStreamOptions::Validate() const {
     return "mapping.stream.ack_channel: expected a channel other than chunk_channel";
   }
   if (delta_vertices < 1) return "mapping.stream.delta_vertices: expected >= 1";
+  if (max_delta_bytes < 65536) return "mapping.stream.max_delta_bytes: expected >= 65536";
   if (!(std::isfinite(delta_period_s) && delta_period_s >= 0.01 && delta_period_s <= 3600.0)) {
     return "mapping.stream.delta_period_s: expected 0.01 .. 3600";
   }
@@ -211,6 +212,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.mapping.stream.ack_channel = stream.Get<std::string>("ack_channel");
   o.mapping.stream.delta_vertices = stream.Get<int>("delta_vertices");
   o.mapping.stream.delta_period_s = stream.Get<double>("delta_period_s");
+  o.mapping.stream.max_delta_bytes = stream.Get<int>("max_delta_bytes");
   o.mapping.stream.end_timeout_s = stream.Get<double>("end_timeout_s");
   o.mapping.stream.retransmit_timeout_s = stream.Get<double>("retransmit_timeout_s");
   o.mapping.stream.max_window_chunks = stream.Get<int>("max_window_chunks");
@@ -311,6 +313,7 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "    ack_channel: " << o.mapping.stream.ack_channel << "\n"
       << "    delta_vertices: " << o.mapping.stream.delta_vertices << "\n"
       << "    delta_period_s: " << o.mapping.stream.delta_period_s << "\n"
+      << "    max_delta_bytes: " << o.mapping.stream.max_delta_bytes << "\n"
       << "    end_timeout_s: " << o.mapping.stream.end_timeout_s << "\n"
       << "    retransmit_timeout_s: " << o.mapping.stream.retransmit_timeout_s << "\n"
       << "    max_window_chunks: " << o.mapping.stream.max_window_chunks << "\n"

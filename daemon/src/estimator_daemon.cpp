@@ -41,6 +41,7 @@
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
 #include "vilma/mapping/map_builder.h"
+#include "vilma/mapstore/delta_split.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/stream/mission_stream_sender.h"
 
@@ -1406,7 +1407,11 @@ void EstimatorDaemon::Impl::MapLoop() {
   auto take_delta = [&](bool always) {
     mapstore::MissionDelta delta = builder->TakeDelta();
     if (!always && delta.vertices.empty() && delta.edges.empty() && delta.landmarks.empty()) return;
-    backlog.push_back(std::move(delta));
+    // The last delta re-sends the whole mission: parts that each fit one LCM message.
+    for (mapstore::MissionDelta& part :
+         mapstore::SplitMissionDelta(delta, static_cast<std::size_t>(so.max_delta_bytes))) {
+      backlog.push_back(std::move(part));
+    }
     Count(kMapDeltas);
   };
   auto service_stream = [&](int timeout_ms) {

@@ -54,6 +54,10 @@ struct MapStreamOptions {
   std::string ack_channel = "VILMA_MISSION_ACK"; // mission_ack_t (+ channel_suffix)
   int delta_vertices = 10;      // send a delta every this many new vertices ...
   double delta_period_s = 1.0;  // ... or when this long has passed with new data [s]
+  // A larger delta (the map builder's last one re-sends the whole mission) goes out in parts
+  // of about this size (mapstore/delta_split.h): one LCM message must fit the receiver's UDP
+  // buffer (8 MB in mapstored) or it is retransmitted forever [bytes].
+  int max_delta_bytes = 1 << 20;
   // At shutdown: wait this long at most for mapstored to acknowledge the END [s]. What is not
   // acknowledged by then is lost for mapstored (the --save-map copy is still written).
   double end_timeout_s = 5.0;
