@@ -26,6 +26,8 @@ case ${1:-} in
   *) echo "bench-map-size.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
 esac
 mkdir -p "$work"
+# shellcheck source=lib/vio-map.sh
+. "$repo_dir/scripts/lib/vio-map.sh"
 sessions=(room-easy)
 [ "$multi" = 1 ] && sessions=(room-easy room-s2 room-s3 room-s4)
 only=$(IFS=,; echo "${sessions[*]},room-s5")
@@ -103,7 +105,7 @@ if [ "$multi" = 1 ]; then
     anchored=$(grep -c -- '-> anchored' "$work/db-$compact.out" || true)
     loops=$(awk '/^lc: / { print $5; exit }' "$work/db-$compact.out")
     merged=$(grep -o '[0-9]* landmarks merged' "$work/db-$compact.out" | head -1 | awk '{ print $1 }')
-    recall=$(awk '/recall +within 0.5 m:/ { for (i = 2; i <= NF; ++i) if ($i ~ /^%\)/) { gsub(/\(/, "", $(i-1)); print $(i-1); exit } }' "$work/db-$compact.localize")
+    recall=$(localize_recall "$work/db-$compact.localize")
     echo "| $compact | $anchored of 3 | $loops | $merged | $recall % |"
   done
 fi

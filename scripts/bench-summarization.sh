@@ -58,11 +58,8 @@ mission0=$(grep -o '^[0-9a-f]\{8\} ' "$work/db.out" | head -1 | tr -d ' ')
   --align posyaw --json "$work/alignment.json" > "$work/alignment.txt"
 
 # 3. Every summarized variant: one console run per database (copy, lsparsify, summary_map).
-recall() {  # localize OUTPUT -> the recall within 0.5 m [%] (the first "(x %)" of its line)
-  awk '/recall +within 0.5 m:/ { for (i = 2; i <= NF; ++i) if ($i ~ /^%\)/) { gsub(/\(/, "", $(i-1)); print $(i-1); exit } }' "$1"
-}
 csv=$work/summarization.csv
-echo "database,method,pruning,landmarks,vlocmap_mb,recall_percent,lsparsify_s" > "$csv"
+echo "database,method,pruning,landmarks,vlocmap_mb,recall_percent" > "$csv"
 for db in full kfh; do
   script=$work/variants-$db.vilma
   echo "load $work/db-$db --map_key=db" > "$script"
@@ -91,7 +88,7 @@ for db in full kfh; do
         { cat "$work/$name.localize" >&2; exit 1; }
       landmarks=$("$bin/vilma" locmap info "$work/$name.vlocmap" | awk '/^  landmarks/ { print $2 }')
       mb=$(awk -v b="$(stat -c %s "$work/$name.vlocmap")" 'BEGIN { printf "%.2f", b / 1e6 }')
-      echo "$db,$method,$p,$landmarks,$mb,$(recall "$work/$name.localize"),NA" >> "$csv"
+      echo "$db,$method,$p,$landmarks,$mb,$(localize_recall "$work/$name.localize")" >> "$csv"
       if [ "$p" = 0 ]; then break; fi
     done
   done

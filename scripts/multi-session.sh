@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # The paper's multi-session use case on simulation (docs/loop-closure.md "Multi-session"):
 # four sessions of the room (room-easy, room-s2..s4: other paths revisiting the first, other
-# lighting), each mapped by vilma-estimatord from its LCM log (--save-map), then one console
+# lighting), each mapped by vilma-estimatord from its LCM log and streamed to vilma-mapstored
+# (MULTI_SESSION_SAVE_MAP=1: the daemon's --save-map instead), then one console
 # script — load_merge_all_maps; aam; lc; kfh; rtl; optvi; save — then a fifth session (room-s5)
 # localized against the merged map in the daemon (LOC mode).
 # Figures: every mission anchored; the ATE of ALL vertices of all missions with ONE alignment
@@ -30,12 +31,45 @@ query=room-s5
 VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" \
   --only "room-easy,room-s2,room-s3,room-s4,$query" >&2
 
-# 1. Each session mapped by the daemon (VIO poses, unknown baseframes).
+# 1. Each session mapped by the daemon (VIO poses, unknown baseframes) and streamed to
+# vilma-mapstored (the robot's path: the mission stream over LCM, journaled and finalized by
+# mapstored), from its LCM log. MULTI_SESSION_SAVE_MAP=1: the daemon's --save-map instead.
 rm -rf "$work/maps" && mkdir -p "$work/maps"
-for s in "${sessions[@]}"; do
-  map=$(vio_map "$s")
-  ln -s "$map" "$work/maps/$s"
-done
+if [ "${MULTI_SESSION_SAVE_MAP:-0}" = 1 ]; then
+  for s in "${sessions[@]}"; do ln -s "$(vio_map "$s")" "$work/maps/$s"; done
+else
+  url="udpm://239.255.76.67:$((7700 + $$ % 200))?ttl=0"
+  root=$work/mapstored
+  rm -rf "$root" && mkdir -p "$root"
+  "$bin/vilma-mapstored" --root "$root" --lcm-url "$url" > "$work/mapstored.out" 2>&1 &
+  store_pid=$!
+  trap 'kill $store_pid 2> /dev/null || true' EXIT
+  for s in "${sessions[@]}"; do
+    log=$work/$s.lcmlog
+    [ -e "$log" ] || "$bin/vilma-replay" "$datasets/$s" --to-log "$log" --quiet
+    python3 - "$repo_dir/config/daemon.yaml" "$work/daemon-$s.yaml" "$url" "$s" <<'PY'
+import sys
+text = open(sys.argv[1]).read()
+for old, new in [("  enabled: false          # run the map-builder", "  enabled: true          # run the map-builder"),
+                 ("    enabled: false\n    lcm_url: \"\"", "    enabled: true\n    lcm_url: \"%s\"" % sys.argv[3]),
+                 ('mission_name: ""', 'mission_name: "%s"' % sys.argv[4]),
+                 ("end_timeout_s: 5.0", "end_timeout_s: 120.0")]:
+    if old not in text:
+        sys.exit("multi-session.sh: config/daemon.yaml has no '%s'" % old)
+    text = text.replace(old, new, 1)
+open(sys.argv[2], "w").write(text)
+PY
+    "$bin/vilma-estimatord" --config "$work/daemon-$s.yaml" --rig "$datasets/$s/rig.yaml" \
+      --input-log "$log" --lcm-url "file://$work/$s-odom.lcm?mode=w" > "$work/daemon-$s.out" 2>&1 ||
+      { cat "$work/daemon-$s.out" >&2; exit 1; }
+    grep -q "mission complete in mapstored" "$work/daemon-$s.out" ||
+      { grep "stream:" "$work/daemon-$s.out" >&2; echo "multi-session.sh: $s not stored" >&2; exit 1; }
+    ln -s "$root/$s" "$work/maps/$s"
+  done
+  kill "$store_pid" && wait "$store_pid" 2> /dev/null || true
+  trap - EXIT
+  echo "sessions streamed to vilma-mapstored: $(grep -c 'mission complete' "$work/mapstored.out") missions stored" >&2
+fi
 
 # 2. One console script over the merged map.
 rm -rf "$work/merged" "$work/traj" && mkdir -p "$work/traj"

@@ -32,3 +32,9 @@ vio_map() {
 
 # ate_rmse EVAL_OUTPUT: the ATE translation RMSE [m] of a `vilma eval` output.
 ate_rmse() { awk '/^ATE translation/ { print $5 }' "$1"; }
+
+# localize_recall OUTPUT: the recall within 0.5 m [%] of a `vilma localize` output (the first
+# "(x %)" of its recall line).
+localize_recall() {
+  awk '/recall +within 0.5 m:/ { for (i = 2; i <= NF; ++i) if ($i ~ /^%\)/) { gsub(/\(/, "", $(i-1)); print $(i-1); exit } }' "$1"
+}
