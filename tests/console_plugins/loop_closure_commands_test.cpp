@@ -141,3 +141,29 @@ TEST_CASE("aam places the second session where the ground truth says; look-alike
 
 }  // namespace
 }  // namespace vilma::console
+
+namespace vilma::console {
+namespace {
+
+TEST_CASE("aam on a map of one mission: it anchors G; a known baseframe is left as it is") {
+  const auto& maps = test::TestMaps();
+  Fixture f;
+  REQUIRE(f.Run("load " + maps.session0_map).ok());
+  const auto m0 = f.map().mission_ids()[0];
+  REQUIRE_FALSE(f.map().mission(m0).baseframe_known);
+  REQUIRE(f.Run("aam").ok());
+  CHECK_THAT(f.out.str(), Catch::Contains("the first anchors G; 0 of 0 unknown missions anchored"));
+  CHECK(f.map().mission(m0).baseframe_known);
+  CHECK(f.map().mission(m0).T_G_M.translation().norm() == 0.0);
+  // Known already (sbk with a moved baseframe): aam changes nothing.
+  f.session.maps().Get(f.session.maps().selected()).map->mission(m0).T_G_M =
+      Transformation(Eigen::Quaterniond::Identity(), Eigen::Vector3d(1.0, 2.0, 3.0));
+  f.out.str("");
+  REQUIRE(f.Run("aam").ok());
+  CHECK_THAT(f.out.str(), Catch::Contains("0 of 0 unknown missions anchored"));
+  CHECK(f.map().mission(m0).T_G_M.translation() == Eigen::Vector3d(1.0, 2.0, 3.0));
+  REQUIRE(f.Run("cmc").ok());
+}
+
+}  // namespace
+}  // namespace vilma::console
