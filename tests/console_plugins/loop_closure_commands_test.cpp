@@ -167,3 +167,41 @@ TEST_CASE("aam on a map of one mission: it anchors G; a known baseframe is left 
 
 }  // namespace
 }  // namespace vilma::console
+
+namespace vilma::console {
+namespace {
+
+TEST_CASE("missions with different rigs (mono and stereo): aam, lc and optvi use each its own") {
+  const auto& maps = test::TestMaps();
+  Fixture f;
+  REQUIRE(f.Run("load " + maps.session0_map + " --map_key=mixed").ok());
+  REQUIRE(f.Run("load_merge_map " + maps.stereo_map).ok());
+  const auto m0 = f.map().mission_ids().at(0), m2 = f.map().mission_ids().at(1);
+  REQUIRE(f.map().mission(m0).rig.cameras.size() == 1);
+  REQUIRE(f.map().mission(m2).rig.cameras.size() == 2);
+  const Transformation expected = WorldFromMission(f.map(), m0, maps.session0_dataset).inverse() *
+                                   WorldFromMission(f.map(), m2, maps.stereo_dataset);
+  REQUIRE(f.Run("aam").ok());
+  INFO(f.out.str());
+  REQUIRE(f.map().mission(m2).baseframe_known);
+  const Transformation& got = f.map().mission(m2).T_G_M;
+  CHECK((got.translation() - expected.translation()).norm() < 0.1);
+  CHECK(AngleBetween(got.rotation(), expected.rotation()) * 180.0 / M_PI < 1.5);
+  f.out.str("");
+  REQUIRE(f.Run("lc").ok());
+  CHECK_THAT(f.out.str(), !Catch::Contains(" 0 loops verified"));
+  REQUIRE(f.Run("cmc").ok());
+  // Observations of the stereo mission's second camera exist after the merge of landmarks.
+  std::size_t camera1_observations = 0;
+  for (const auto& m : f.map().mission_ids()) {
+    for (const auto& l : f.map().landmark_ids(m)) {
+      for (const auto& o : f.map().landmark(l).observations) camera1_observations += o.camera == 1;
+    }
+  }
+  CHECK(camera1_observations > 0);
+  REQUIRE(f.Run("optvi --ba_num_iterations=5").ok());
+  REQUIRE(f.Run("cmc").ok());
+}
+
+}  // namespace
+}  // namespace vilma::console

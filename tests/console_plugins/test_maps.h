@@ -28,6 +28,9 @@ struct ConsoleTestMaps {
   std::string maps_folder;  // holds session0/ and session1/
   std::string session0_map, session1_map;
   std::string session0_dataset, session1_dataset;  // ASL with ground truth
+  // Another rig: session 2 revisits session 0's path with a stereo camera pair (sessions 0 and
+  // 1 are mono); its own folder, so that maps_folder keeps two missions.
+  std::string stereo_map, stereo_dataset;
 };
 
 inline std::string BinDir() { return std::string(VILMA_BINARY_DIR) + "/bin"; }
@@ -60,6 +63,8 @@ inline const ConsoleTestMaps& TestMaps() {
     m.session1_map = m.maps_folder + "/session1";
     m.session0_dataset = m.root + "/datasets/session0";
     m.session1_dataset = m.root + "/datasets/session1";
+    m.stereo_map = m.root + "/maps-stereo/session2";
+    m.stereo_dataset = m.root + "/datasets/session2";
     ::mkdir((std::string(VILMA_BINARY_DIR) + "/test-cache").c_str(), 0755);
     const std::string lock_path = std::string(VILMA_BINARY_DIR) + "/test-cache/console-maps.lock";
     const int lock = ::open(lock_path.c_str(), O_CREAT | O_RDWR, 0644);
