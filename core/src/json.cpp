@@ -1,5 +1,6 @@
 #include "vilma/core/json.h"
 
+#include <cmath>
 #include <cstdio>
 
 namespace vilma {
@@ -35,6 +36,14 @@ std::string JsonString(const std::string& text, bool for_html_script) {
     }
   }
   return out + "\"";
+}
+
+std::string JsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  if (v == 0.0) v = 0.0;  // no "-0"
+  char buf[32];
+  std::snprintf(buf, sizeof(buf), "%.10g", v);
+  return buf;
 }
 
 }  // namespace vilma

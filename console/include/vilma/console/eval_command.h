@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "vilma/console/alignment_json.h"
 #include "vilma/console/command.h"
 #include "vilma/core/trajectory.h"
 #include "vilma/core/trajectory_eval.h"
@@ -53,14 +54,6 @@ void WriteEvalJson(std::ostream& out, const EvalCommandOptions& options, const T
 // t_s,gt_x,gt_y,gt_z,est_x,est_y,est_z,translation_error_m,rotation_error_deg (t_s relative to
 // the first matched pose; index when there are no time stamps).
 void WritePlotCsv(std::ostream& out, const EvalResult& result);
-
-// The alignment_transform (S_G_E: scale, translation_m, quaternion_wxyz) of a `vilma eval
-// --json` file (schema_version 1), as an Alignment of type kFixed. Strict JSON (RFC 8259, no
-// duplicate keys); throws InputError naming the file, the field and the expectation (missing,
-// wrong type, wrong length, scale <= 0, quaternion norm off 1 by more than 1e-6). The
-// quaternion is normalized.
-Alignment ParseAlignmentJson(const std::string& text, const std::string& path);
-Alignment ReadAlignmentJson(const std::string& path);
 
 // The whole command; returns kExitOk, kExitInputError or kExitUsage.
 int RunEvalCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);

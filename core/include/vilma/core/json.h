@@ -11,4 +11,8 @@ namespace vilma {
 // inside an HTML <script> element ("</script>" cannot end it).
 std::string JsonString(const std::string& text, bool for_html_script = false);
 
+// A JSON number with 10 significant digits; non-finite values (never valid JSON) become null,
+// -0 becomes 0.
+std::string JsonNumber(double v);
+
 }  // namespace vilma
