@@ -114,6 +114,13 @@ ConsistencyReport CheckMapConsistency(const VIMap& map) {
                     f.image_resource_id.Hex() + " which the map does not hold");
           }
         }
+        if (f.depth_resource_id.IsValid()) {
+          if (!map.resources().Has(ResourceType::kDepthMap, f.depth_resource_id)) {
+            add(ConsistencyProblemKind::kMissingResource,
+                vs + " camera " + std::to_string(c) + " refers to depth resource " +
+                    f.depth_resource_id.Hex() + " which the map does not hold");
+          }
+        }
       }
     }
 

@@ -73,6 +73,7 @@ void ToProto(const VisualFrame& f, pb::VisualFrame* out) {
     out->add_landmark_ids(id.lo);
   }
   if (f.image_resource_id.IsValid()) ToProto(f.image_resource_id, out->mutable_image_resource_id());
+  if (f.depth_resource_id.IsValid()) ToProto(f.depth_resource_id, out->mutable_depth_resource_id());
 }
 
 void ToProto(const Vertex& v, pb::Vertex* out) {
@@ -199,6 +200,7 @@ VisualFrame FromProto(const pb::VisualFrame& p, const Reader& in, const std::str
     f.landmark_ids[i].lo = p.landmark_ids(2 * i + 1);
   }
   f.image_resource_id = in.ReadId(p.image_resource_id());
+  f.depth_resource_id = in.ReadId(p.depth_resource_id());
   return f;
 }
 

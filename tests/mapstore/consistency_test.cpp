@@ -145,6 +145,10 @@ TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
     map.vertex(v0[2]).frames[1].image_resource_id = IdGenerator(555).Next();
     RequireOnly(map, K::kMissingResource, "image resource");
   }
+  SECTION("depth resource not in the map") {
+    map.vertex(v0[2]).frames[1].depth_resource_id = IdGenerator(556).Next();
+    RequireOnly(map, K::kMissingResource, "depth resource");
+  }
   SECTION("resource file deleted from a saved map") {
     const std::string dir = "/work/cache/mapstore_tests/consistency_resource";
     std::filesystem::remove_all(dir);

@@ -106,6 +106,11 @@ inline VIMap MakeSyntheticMap(const SyntheticMapOptions& o) {
           std::string bytes = "\x89PNG fake " + std::to_string(vi) + "/" + std::to_string(c);
           bytes.append(200 + 37 * vi, static_cast<char>('a' + c));
           map.resources().Add(ResourceType::kImage, f.image_resource_id, "png", bytes);
+          if (c == 0) {  // a depth map beside the first camera's image
+            f.depth_resource_id = ids.Next();
+            map.resources().Add(ResourceType::kDepthMap, f.depth_resource_id, "vdepth",
+                                "vilma-depth fake " + std::to_string(vi));
+          }
         }
         v.frames.push_back(std::move(f));
       }
@@ -251,6 +256,7 @@ inline void RequireMapsEqual(const VIMap& a, const VIMap& b) {
         REQUIRE(fa.track_ids == fb.track_ids);
         REQUIRE(fa.landmark_ids == fb.landmark_ids);
         REQUIRE(fa.image_resource_id == fb.image_resource_id);
+        REQUIRE(fa.depth_resource_id == fb.depth_resource_id);
       }
     }
     for (const EdgeId& id : a.edge_ids(mid)) {

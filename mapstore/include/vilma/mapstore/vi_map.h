@@ -56,6 +56,10 @@ struct VisualFrame {
   std::vector<int64_t> track_ids;        // -1: not tracked
   std::vector<LandmarkId> landmark_ids;  // invalid id: no landmark
   ResourceId image_resource_id;          // invalid: no image stored
+  // Depth seen by this camera (ResourceType::kDepthMap, mapping/dense/depth_map.h format:
+  // metric depth of a pinhole view that may be rectified, i.e. rotated against the camera);
+  // invalid: none.
+  ResourceId depth_resource_id;
 
   std::size_t size() const { return keypoints.size(); }
   const uint8_t* descriptor(std::size_t keypoint) const {
