@@ -3,11 +3,11 @@
 #include <cmath>
 #include <filesystem>
 #include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <unordered_map>
 
 #include "export_files.h"
+#include "export_images.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/mapping/export/map_plot.h"
@@ -15,6 +15,7 @@
 namespace vilma::mapping {
 
 using export_files::Exact;
+using export_images::ImageUndistorter;
 using mapstore::IdHash;
 using mapstore::LandmarkId;
 using mapstore::MissionId;
@@ -32,10 +33,10 @@ struct ColmapCamera {
   std::string model;
   int width = 0, height = 0;
   std::vector<double> params;  // in COLMAP's pixel convention
-  Camera source;               // the map's camera
-  Camera exported;             // the camera the exported keypoints belong to (vilma pixels)
+  // The map's camera (source) to the camera the exported keypoints belong to (target, vilma
+  // pixels): the same camera unless undistorted.
+  ImageUndistorter undistorter;
   bool undistort = false;
-  cv::Mat map_x, map_y;  // source -> exported remap tables (made on first use)
 };
 
 struct ColmapImage {
@@ -48,6 +49,7 @@ struct ColmapImage {
   std::vector<bool> usable;         // false: not undistortable (left out of tracks)
   std::vector<int64_t> point3d;     // COLMAP POINT3D_ID or -1
   mapstore::ResourceId image_resource;
+  bool has_image = false;  // the map holds the image resource
 };
 
 struct ColmapPoint {
@@ -61,12 +63,11 @@ struct ColmapPoint {
 ColmapCamera MakeCamera(const Camera& camera, bool undistort, double alpha,
                         const std::string& where) {
   ColmapCamera c;
-  c.source = camera;
   c.undistort = undistort;
   c.width = camera.width();
   c.height = camera.height();
-  c.exported = undistort ? camera.UndistortedPinhole(alpha) : camera;
-  const Camera& e = c.exported;
+  c.undistorter = ImageUndistorter(camera, undistort ? camera.UndistortedPinhole(alpha) : camera);
+  const Camera& e = c.undistorter.target();
   c.params = {e.fx(), e.fy(), e.cx() + kColmapPixelOffset, e.cy() + kColmapPixelOffset};
   switch (e.distortion_model()) {
     case DistortionModel::kNone:
@@ -161,50 +162,19 @@ std::string PointsText(const std::vector<ColmapPoint>& points, std::size_t obser
 // grey) for point colours. Throws InputError naming the resource when it cannot be used.
 std::string ExportImageBytes(const VIMap& map, const ColmapImage& image, ColmapCamera* camera,
                              cv::Mat* decoded) {
-  const mapstore::ResourceInfo& info =
-      map.resources().Info(mapstore::ResourceType::kImage, image.image_resource);
-  const std::shared_ptr<const std::string> bytes =
-      map.resources().Load(mapstore::ResourceType::kImage, image.image_resource);
-  const std::string where = "image resource " + info.RelativePath();
-  const cv::Mat raw(1, static_cast<int>(bytes->size()), CV_8UC1, const_cast<char*>(bytes->data()));
-  cv::Mat picture = cv::imdecode(raw, cv::IMREAD_UNCHANGED);
-  if (picture.empty()) {
-    throw InputError(FormatInputError(where, "", "expected an image OpenCV can decode"));
-  }
-  if (picture.cols != camera->width || picture.rows != camera->height) {
-    throw InputError(
-        FormatInputError(where, "size",
-                         "expected " + std::to_string(camera->width) + "x" +
-                             std::to_string(camera->height) + " as the rig's camera, found " +
-                             std::to_string(picture.cols) + "x" + std::to_string(picture.rows)));
-  }
-  if (camera->undistort) {
-    if (camera->map_x.empty()) {
-      camera->source.ComputeUndistortionMaps(camera->exported, &camera->map_x, &camera->map_y);
-    }
-    cv::Mat undistorted;
-    cv::remap(picture, undistorted, camera->map_x, camera->map_y, cv::INTER_LINEAR,
-              cv::BORDER_CONSTANT, cv::Scalar::all(0));
-    picture = undistorted;
-  }
+  const export_images::DecodedImage resource =
+      export_images::DecodeImageResource(map, image.image_resource, camera->width, camera->height);
+  cv::Mat picture = resource.picture;
+  if (camera->undistort) picture = camera->undistorter.Image(picture);
   *decoded = picture;
-  if (!camera->undistort && (info.extension == "png" || info.extension == "PNG")) return *bytes;
+  if (!camera->undistort && (resource.extension == "png" || resource.extension == "PNG")) {
+    return *resource.bytes;
+  }
   std::vector<uchar> png;
   if (!cv::imencode(".png", picture, png)) {
-    throw InputError(FormatInputError(where, "", "expected an image PNG can hold"));
+    throw InputError(FormatInputError(resource.where, "", "expected an image PNG can hold"));
   }
   return std::string(png.begin(), png.end());
-}
-
-std::array<uint8_t, 3> PixelRgb(const cv::Mat& image, int u, int v) {
-  const int channels = image.channels();
-  const bool wide = image.depth() == CV_16U;
-  auto value = [&](int c) -> uint8_t {
-    return wide ? static_cast<uint8_t>(image.ptr<uint16_t>(v)[u * channels + c] >> 8)
-                : image.ptr<uint8_t>(v)[u * channels + c];
-  };
-  if (channels >= 3) return {value(2), value(1), value(0)};  // BGR(A) -> RGB
-  return {value(0), value(0), value(0)};
 }
 
 }  // namespace
@@ -278,19 +248,18 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
         image.T_C_G = (T_G_I * mission.rig.cameras[c].T_I_C).inverse();
         image.name = vertex_id.Hex() + "_cam" + std::to_string(c) + ".png";
         image.image_resource = frame.image_resource_id;
+        image.has_image = export_images::HasImage(map, frame);
         image.point3d.assign(frame.size(), -1);
         image.usable.assign(frame.size(), true);
         image.uv.reserve(frame.size());
         const ColmapCamera& camera = cameras[image.colmap_camera];
         for (std::size_t k = 0; k < frame.size(); ++k) {
           Eigen::Vector2d uv = frame.keypoints[k].uv;
+          // Undistorted keypoint: the pinhole's projection of the keypoint's ray (the measured
+          // one is kept, unused, where there is none).
+          Eigen::Vector2d pinhole_uv;
           if (undistort) {
-            // Undistorted keypoint: the pinhole's projection of the keypoint's ray.
-            Eigen::Vector3d bearing;
-            Eigen::Vector2d pinhole_uv;
-            if (camera.source.Unproject(uv, &bearing) && bearing.z() > 1e-6 &&
-                camera.exported.Project(bearing, &pinhole_uv) !=
-                    Camera::ProjectionResult::kNotFinite) {
+            if (camera.undistorter.Keypoint(uv, &pinhole_uv)) {
               uv = pinhole_uv;
             } else {
               image.usable[k] = false;
@@ -324,17 +293,13 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
         const std::size_t index = found->second + o.camera;
         if (index >= images.size() || images[index].vertex != o.vertex_id ||
             o.keypoint >= images[index].uv.size()) {
-          throw InputError(
-              FormatInputError("landmark " + landmark_id.Hex(), "observations",
-                               "expected an existing keypoint, found vertex " + o.vertex_id.Hex() +
-                                   " camera " + std::to_string(o.camera) + " keypoint " +
-                                   std::to_string(o.keypoint) + " (run check_map_consistency)"));
+          export_images::ThrowMissingKeypoint(landmark_id, o);
         }
         const ColmapImage& image = images[index];
         const Eigen::Vector3d p_C = image.T_C_G * point.p_G;
         Eigen::Vector2d projected;
         if (!image.usable[o.keypoint] || p_C.z() <= 0.0 ||
-            cameras[image.colmap_camera].exported.Project(p_C, &projected) ==
+            cameras[image.colmap_camera].undistorter.target().Project(p_C, &projected) ==
                 Camera::ProjectionResult::kNotFinite) {
           ++summary.observations_dropped;
           continue;
@@ -372,10 +337,7 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
     for (std::size_t i = 0; i < images.size(); ++i) {
       ReportProgress(progress, i);
       const ColmapImage& image = images[i];
-      if (!image.image_resource.IsValid() ||
-          !map.resources().Has(mapstore::ResourceType::kImage, image.image_resource)) {
-        continue;
-      }
+      if (!image.has_image) continue;
       cv::Mat decoded;
       const std::string bytes =
           ExportImageBytes(map, image, &cameras[image.colmap_camera], &decoded);
@@ -387,7 +349,7 @@ ColmapExportSummary ExportColmap(const VIMap& map, const ColmapExportOptions& op
         const int u = static_cast<int>(std::lround(image.uv[keypoint].x()));
         const int v = static_cast<int>(std::lround(image.uv[keypoint].y()));
         if (u < 0 || v < 0 || u >= decoded.cols || v >= decoded.rows) continue;
-        points[p].rgb = PixelRgb(decoded, u, v);
+        points[p].rgb = export_images::PixelRgb(decoded, u, v);
         points[p].rgb_from_image = true;
       }
     }
