@@ -1593,6 +1593,8 @@ void EstimatorDaemon::Impl::MapLoop() {
           for (const mapstore::MissionId& id : m.mission_ids()) {
             mapstore::ApplyMissionDelta(WholeMission(m, id), &all);
           }
+          // Deltas carry no resources: the images of map_builder.keep_images.
+          all.resources().MergeFrom(m.resources());
         }
         saved = mapstore::SaveMap(all, options.mapping.save_dir);
       }

@@ -11,6 +11,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/core/timing.h"
+#include "vilma/mapping/image_resources.h"
 #include "vilma/mapstore/compaction.h"
 
 namespace vilma::mapping {
@@ -57,7 +58,12 @@ std::string MapBuilderStats::ToString(const std::string& indent) const {
     first = false;
   }
   if (!first) s << ")";
-  s << "\n"
+  s << "\n";
+  if (images_kept > 0) {
+    s << indent << "images kept      " << images_kept << " (" << image_bytes / 1e6 << " MB PNG, "
+      << image_ms_total / static_cast<double>(images_kept) << " ms/image to encode)\n";
+  }
+  s
     << indent << "builder time     " << vertex_ms_mean() << " ms/vertex mean, " << vertex_ms_max
     << " max; finish " << finish_ms << " ms\n";
   return s.str();
@@ -275,6 +281,22 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
     stats_.tracked_keypoints += r.num_matched;
   }
 
+  if (options_.keep_images) {
+    // Every image of the vertex, also of cameras without features (dense reconstruction wants
+    // the stereo partner). Encoding copies, so the caller may reuse its buffers.
+    const auto ti = std::chrono::steady_clock::now();
+    for (std::size_t ci = 0; ci < vertex.frames.size() && ci < images.size(); ++ci) {
+      if (images[ci].empty()) continue;
+      const mapstore::ResourceId rid = ImageResourceId(vertex.id, static_cast<uint32_t>(ci));
+      std::string png = EncodeImagePng(images[ci]);
+      stats_.image_bytes += static_cast<int64_t>(png.size());
+      map_.resources().Add(mapstore::ResourceType::kImage, rid, "png", std::move(png));
+      vertex.frames[ci].image_resource_id = rid;
+      ++stats_.images_kept;
+    }
+    stats_.image_ms_total += MsSince(ti);
+  }
+
   const VertexId id = vertex.id;
   map_.AddVertex(std::move(vertex));
   delta_vertices_.push_back(id);
@@ -390,7 +412,12 @@ mapstore::MissionDelta MapBuilder::TakeDelta() {
   delta.mission = map_.mission(mission_id_);
   std::unordered_set<Id, mapstore::IdHash> seen;
   for (const VertexId& id : delta_vertices_) {
-    if (seen.insert(id).second) delta.vertices.push_back(map_.vertex(id));
+    if (!seen.insert(id).second) continue;
+    delta.vertices.push_back(map_.vertex(id));
+    // The stream carries no resources: a receiver would hold ids of images it does not have.
+    for (mapstore::VisualFrame& f : delta.vertices.back().frames) {
+      f.image_resource_id = mapstore::ResourceId();
+    }
   }
   for (const mapstore::EdgeId& id : delta_edges_) delta.edges.push_back(map_.edge(id));
   for (const mapstore::LandmarkId& id : delta_landmarks_) {

@@ -99,6 +99,7 @@ MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {
   o.landmark_quality.max_reprojection_error_px = q.Get<double>("max_reprojection_error_px");
   q.CheckNoUnknownKeys();
   o.compact = root.Get<std::string>("compact");
+  o.keep_images = root.Get<bool>("keep_images");
   root.CheckNoUnknownKeys();
   root.CheckValid(o.Validate());
   return o;
@@ -135,6 +136,7 @@ std::string MapBuilderOptionsToYaml(const MapBuilderOptions& o) {
       << "  max_reprojection_error_px: " << Num(o.landmark_quality.max_reprojection_error_px)
       << "\n";
   out << "compact: \"" << o.compact << "\"\n";
+  out << "keep_images: " << (o.keep_images ? "true" : "false") << "\n";
   return out.str();
 }
 

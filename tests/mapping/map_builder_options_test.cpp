@@ -35,6 +35,7 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   o.triangulation.max_iterations = 3;
   o.landmark_quality.min_observers = 6;
   o.landmark_quality.max_reprojection_error_px = 1.25;
+  o.keep_images = true;
   const MapBuilderOptions back = ParseMapBuilderOptions(MapBuilderOptionsToYaml(o), "t.yaml");
   CHECK(back.vertex_rate_hz == 7.5);
   CHECK(back.cameras == std::vector<int>{1, 0});
@@ -42,6 +43,7 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   CHECK(back.triangulation.max_iterations == 3);
   CHECK(back.landmark_quality.min_observers == 6);
   CHECK(back.landmark_quality.max_reprojection_error_px == 1.25);
+  CHECK(back.keep_images);
   CHECK(MapBuilderOptionsToYaml(back) == MapBuilderOptionsToYaml(o));
 }
 

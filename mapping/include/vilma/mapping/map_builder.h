@@ -73,6 +73,9 @@ struct MapBuilderStats {
   int64_t landmarks_good = 0;
   int64_t landmarks_bad = 0;
   int64_t verdicts[kNumLandmarkVerdicts] = {};  // per LandmarkVerdict (index = enum value)
+  int64_t images_kept = 0;       // keep_images: image resources stored
+  int64_t image_bytes = 0;       // keep_images: their PNG bytes
+  double image_ms_total = 0.0;   // keep_images: time spent encoding them [ms]
   double vertex_ms_total = 0.0;  // time in AddFrame for frames that became vertices [ms]
   double vertex_ms_max = 0.0;
   double finish_ms = 0.0;  // time in Finish() [ms]
@@ -93,15 +96,18 @@ class MapBuilder {
   void AddImu(const ImuSample& sample);
 
   // `images`: one per rig camera (an empty cv::Mat: no image of that camera in this frame;
-  // cameras not in options.cameras are ignored), 8-bit grey. Returns true when the frame became
-  // a vertex. Frames must come in increasing time; others are rejected (counted).
+  // cameras not in options.cameras get no features), 8-bit grey. With options.keep_images every
+  // image of a frame that becomes a vertex is also stored as a PNG image resource. Returns true
+  // when the frame became a vertex. Frames must come in increasing time; others are rejected
+  // (counted).
   bool AddFrame(const FrameState& state, const std::vector<cv::Mat>& images);
   // True when a frame at t_ns would become a vertex (so a caller can skip loading or copying
   // images of frames that would be dropped by the vertex rate).
   bool WantsFrame(int64_t t_ns) const;
 
   // The mission header plus vertices and completed edges new since the last call; after
-  // Finish() also the landmarks and the vertices whose landmark ids changed.
+  // Finish() also the landmarks and the vertices whose landmark ids changed. Deltas carry no
+  // resources, so their vertices carry no image ids (keep_images: only map() has the images).
   mapstore::MissionDelta TakeDelta();
 
   // Triangulates and evaluates the landmarks, completes a pending IMU edge, marks the mission

@@ -57,6 +57,12 @@ struct MapBuilderOptions {
   //             (fewer loops within a mission, the same optimized ATE) and `itl` no free tracks
   //             (docs/mapping.md has the figures).
   std::string compact = "good";
+  // Keep the camera images of the vertices as image resources (docs/mapping.md "Images"):
+  // every non-empty image AddFrame gets for a frame that becomes a vertex (all rig cameras, not
+  // only `cameras`), lossless PNG, id ImageResourceId(vertex, camera). Held in memory until the
+  // map is saved (~0.2-0.3 MB per 752x480 grey image); not sent in mission deltas (TakeDelta
+  // clears the image ids), so missions streamed to vilma-mapstored have none.
+  bool keep_images = false;
   bool StoresShortTracks() const { return compact == "none"; }
   bool StoresBadLandmarks() const { return compact != "good"; }
   // Empty when valid, else "field: expectation" (field path with sections).
