@@ -73,7 +73,9 @@ void MapStore::Rename(const std::string& old_key, const std::string& new_key) {
 }
 
 void MapStore::Replace(const std::string& key, mapstore::VIMap map) {
-  *Get(key).map = std::move(map);
+  Entry& entry = Get(key);
+  *entry.map = std::move(map);
+  entry.derived.clear();
 }
 
 std::vector<std::string> MapStore::Keys() const {

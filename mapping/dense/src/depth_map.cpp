@@ -158,4 +158,51 @@ DepthMap LoadDepthMap(const mapstore::VIMap& map, const mapstore::VertexId& vert
                         where + " depth resource " + id.Hex());
 }
 
+Eigen::Matrix4d DepthViewPose(const mapstore::VIMap& map, const mapstore::VertexId& vertex,
+                              int camera, const DepthMap& depth) {
+  const mapstore::Mission& mission = map.mission(map.vertex(vertex).mission_id);
+  const Transformation T_G_C = map.T_G_I(vertex) * mission.rig.cameras.at(camera).T_I_C;
+  Eigen::Matrix4d T_G_D = T_G_C.matrix();
+  T_G_D.topLeftCorner<3, 3>() = T_G_C.rotationMatrix() * depth.q_C_D.toRotationMatrix();
+  return T_G_D;
+}
+
+std::string DepthFilterOptions::Validate() const {
+  if (neighbours < 0) return "neighbours: >= 0";
+  if (min_consistent_views < 1) return "min_consistent_views: >= 1";
+  if (!(relative_tolerance > 0.0)) return "relative_tolerance: > 0";
+  return "";
+}
+
+int FilterDepthByNeighbours(DepthMap* view, const Eigen::Matrix4d& T_G_D,
+                            const std::vector<PosedDepth>& others, const DepthFilterOptions& options) {
+  std::vector<Eigen::Matrix4d> T_O_D;
+  for (const PosedDepth& o : others) T_O_D.push_back(o.T_G_D.inverse() * T_G_D);
+  int removed = 0;
+  for (int v = 0; v < view->height(); ++v) {
+    float* row = view->depth_m.ptr<float>(v);
+    for (int u = 0; u < view->width(); ++u) {
+      const float z = row[u];
+      if (!(z > 0.0f)) continue;
+      const Eigen::Vector4d p_D(z * (u - view->cx) / view->fx, z * (v - view->cy) / view->fy, z, 1.0);
+      int confirmed = 0;
+      for (std::size_t k = 0; k < others.size() && confirmed < options.min_consistent_views; ++k) {
+        const DepthMap& o = *others[k].depth;
+        const Eigen::Vector4d p_O = T_O_D[k] * p_D;
+        if (p_O.z() <= 0.0) continue;
+        const long uo = std::lround(o.fx * p_O.x() / p_O.z() + o.cx);
+        const long vo = std::lround(o.fy * p_O.y() / p_O.z() + o.cy);
+        if (uo < 0 || vo < 0 || uo >= o.width() || vo >= o.height()) continue;
+        const float z_o = o.depth_m.at<float>(static_cast<int>(vo), static_cast<int>(uo));
+        confirmed += z_o > 0.0f && std::abs(p_O.z() - z_o) <= options.relative_tolerance * p_O.z();
+      }
+      if (confirmed < options.min_consistent_views) {
+        row[u] = 0.0f;
+        ++removed;
+      }
+    }
+  }
+  return removed;
+}
+
 }  // namespace vilma::mapping

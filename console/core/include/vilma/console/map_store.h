@@ -16,6 +16,10 @@ class MapStore {
   struct Entry {
     std::unique_ptr<mapstore::VIMap> map;
     std::string folder;  // where it was loaded from or last saved to ("" for none)
+    // Products computed from the map that later commands use (the TSDF volume of
+    // create_tsdf_from_depth_resource for export_tsdf), by name, type-erased (the console core
+    // knows no algorithm). They describe the map as it was: Replace drops them.
+    std::map<std::string, std::shared_ptr<void>> derived;
   };
 
   // Adds a map under `key` (a non-empty word without spaces); selects it when nothing is
@@ -28,7 +32,8 @@ class MapStore {
   // Removes a map; the selection moves to the first remaining key (or none).
   void Remove(const std::string& key);
   void Rename(const std::string& old_key, const std::string& new_key);
-  // Replaces the map of an existing key (a modifying command's result).
+  // Replaces the map of an existing key (a modifying command's result) and drops its derived
+  // products.
   void Replace(const std::string& key, mapstore::VIMap map);
 
   std::vector<std::string> Keys() const;  // sorted

@@ -20,6 +20,7 @@
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
+#include <vector>
 
 #include "vilma/mapstore/id.h"
 #include "vilma/mapstore/vi_map.h"
@@ -57,5 +58,30 @@ mapstore::ResourceId DerivedResourceId(const mapstore::VertexId& vertex, int cam
 // Loads and decodes a frame's depth map; throws InputError naming the vertex and camera when
 // the frame has none or it does not decode.
 DepthMap LoadDepthMap(const mapstore::VIMap& map, const mapstore::VertexId& vertex, int camera);
+
+// The pose of a frame's depth view in G: T_G_D = T_G_I T_I_C [R_C_D, 0].
+Eigen::Matrix4d DepthViewPose(const mapstore::VIMap& map, const mapstore::VertexId& vertex,
+                              int camera, const DepthMap& depth);
+
+// Multi-view depth check (as MVS fusion does): a depth pixel is kept when its point, seen from
+// at least `min_consistent_views` other depth views, lands on a depth that agrees within
+// `relative_tolerance` (|z_predicted - z_measured| <= tolerance * z_predicted). Views that do
+// not see the point neither confirm nor refute it.
+struct DepthFilterOptions {
+  int neighbours = 2;            // views before and after in the mission compared; 0: no filter
+  int min_consistent_views = 1;
+  double relative_tolerance = 0.02;
+  std::string Validate() const;
+};
+
+struct PosedDepth {
+  const DepthMap* depth = nullptr;
+  Eigen::Matrix4d T_G_D = Eigen::Matrix4d::Identity();
+};
+
+// Zeroes the pixels of `view` that fewer than min_consistent_views of `others` confirm;
+// returns how many were removed.
+int FilterDepthByNeighbours(DepthMap* view, const Eigen::Matrix4d& T_G_D,
+                            const std::vector<PosedDepth>& others, const DepthFilterOptions& options);
 
 }  // namespace vilma::mapping

@@ -69,7 +69,7 @@ struct SgbmOptions {
   int p1_per_pixel = 8;      // P1 = p1_per_pixel * block_size^2 (smoothness, +-1 disparity)
   int p2_per_pixel = 32;     // P2 = p2_per_pixel * block_size^2 (larger jumps), > P1
   int disp12_max_diff = 1;   // left-right check [px]; < 0: off
-  int uniqueness_ratio = 10;       // [%]
+  int uniqueness_ratio = 15;       // [%]
   int speckle_window_size = 100;   // 0: no speckle filter
   int speckle_range = 2;           // [disparity px]
   int pre_filter_cap = 63;
