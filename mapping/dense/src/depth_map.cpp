@@ -94,14 +94,24 @@ DepthMap DecodeDepthMap(const std::string& bytes, const std::string& where) {
                                       "other bytes");
   }
   std::istringstream in(bytes.substr(0, end + 1));
-  const int version = static_cast<int>(ReadHeaderLine(in, "vilma-depth", 1, where)[0]);
-  if (version < 1 || version > kDepthMapFormatVersion) {
+  // Whole numbers are checked before any cast to int (a cast of 1e30 is undefined).
+  const double version = ReadHeaderLine(in, "vilma-depth", 1, where)[0];
+  if (!(version >= 1 && version <= kDepthMapFormatVersion && version == std::floor(version))) {
+    std::ostringstream found;
+    found << version;
     throw Malformed(where, "vilma-depth",
                                       "a format version from 1 to " +
                                           std::to_string(kDepthMapFormatVersion),
-                                      std::to_string(version));
+                                      found.str());
   }
   const std::vector<double> size = ReadHeaderLine(in, "size", 2, where);
+  for (double n : size) {
+    if (!(n >= 1 && n <= 65535 && n == std::floor(n))) {
+      std::ostringstream found;
+      found << size[0] << " " << size[1];
+      throw Malformed(where, "size", "width and height, whole numbers from 1 to 65535", found.str());
+    }
+  }
   const std::vector<double> pinhole = ReadHeaderLine(in, "pinhole", 4, where);
   const std::vector<double> q = ReadHeaderLine(in, "q_C_D", 4, where);
   const double unit = ReadHeaderLine(in, "depth_unit_m", 1, where)[0];
@@ -115,7 +125,8 @@ DepthMap DecodeDepthMap(const std::string& bytes, const std::string& where) {
                                       "norm " + std::to_string(q_C_D.norm()));
   }
   const std::vector<uint8_t> png(bytes.begin() + static_cast<std::ptrdiff_t>(end + 2), bytes.end());
-  const cv::Mat quantized = cv::imdecode(png, cv::IMREAD_UNCHANGED);
+  // cv::imdecode asserts (cv::Exception) on an empty buffer instead of returning no image.
+  const cv::Mat quantized = png.empty() ? cv::Mat() : cv::imdecode(png, cv::IMREAD_UNCHANGED);
   if (quantized.empty() || quantized.type() != CV_16UC1) {
     throw Malformed(where, "data", "a 16-bit one-channel PNG", "other data");
   }

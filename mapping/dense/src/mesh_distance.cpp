@@ -7,10 +7,29 @@
 
 namespace vilma::mapping {
 
+namespace {
+
+double PointSegmentDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
+                            const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double length2 = ab.squaredNorm();
+  const double t = length2 > 0.0 ? std::clamp((p - a).dot(ab) / length2, 0.0, 1.0) : 0.0;
+  return (p - (a + t * ab)).norm();
+}
+
+}  // namespace
+
 double PointTriangleDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
                              const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  // Closest point by the region of p among the triangle's vertices, edges and face.
   const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  // A triangle without area (two corners equal, as marching cubes makes where the surface
+  // passes a voxel corner, or collinear corners) is its longest edge: the regions below would
+  // divide 0 by 0.
+  if (ab.cross(ac).squaredNorm() <= 1e-24 * ab.squaredNorm() * ac.squaredNorm()) {
+    return std::min({PointSegmentDistance(p, a, b), PointSegmentDistance(p, b, c),
+                     PointSegmentDistance(p, c, a)});
+  }
+  // Closest point by the region of p among the triangle's vertices, edges and face.
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
   if (d1 <= 0.0 && d2 <= 0.0) return (p - a).norm();
   const Eigen::Vector3d bp = p - b;

@@ -257,6 +257,8 @@ TsdfVolume FuseDepthResources(const mapstore::VIMap& map,
 }
 
 void WriteMeshPly(const TriangleMesh& mesh, const std::string& path) {
+  // Open3D's writer refuses a mesh without vertices: say so, not "not writable".
+  if (mesh.vertices.empty()) throw InputError(path + ": expected a mesh to write, found no vertices");
   open3d::geometry::TriangleMesh o3d;
   o3d.vertices_ = mesh.vertices;
   o3d.triangles_ = mesh.triangles;
