@@ -133,6 +133,10 @@ void RegisterTsdf(CommandRegistry* registry) {
           .Flag("dense_tsdf_max_memory_mb", &B::max_memory_mb,
                 "stop with an error when the voxels would need more [MiB]")
           .Flag("dense_tsdf_color", &B::color, "gray values from the image resources")
+          .Flag("dense_tsdf_threads", &B::threads,
+                "OpenMP threads of the integration (1: deterministic timing under load)")
+          .Flag("dense_mesh_min_weight", &B::mesh_min_weight,
+                "surface seen by fewer depth maps (mean voxel weight) is left out of the mesh")
           .FlagAt("dense_depth_filter_neighbours",
                   [](O& o) -> int& { return o.filter.neighbours; },
                   "depth pixels are checked against this many views before and after (same "

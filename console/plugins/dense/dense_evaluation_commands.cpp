@@ -11,6 +11,7 @@
 #include "vilma/mapping/dense/tsdf_fusion.h"
 #include "vilma/mapping/evaluation/map_evaluation.h"
 #include "vilma/mapping/evaluation/mesh_evaluation.h"
+#include "vilma/mapping/evaluation/true_depth.h"
 #include "vilma/mapping/inspection/map_statistics.h"
 
 namespace vilma::console {
@@ -22,6 +23,14 @@ struct EvalMeshCommandOptions : mapping::MeshEvaluationOptions {
   std::string align = "posyaw";
   std::string mission;
   std::string json;
+  std::string error_mesh;  // also write the mesh coloured by error here
+  double error_mesh_red_at_m = 0.10;
+};
+
+struct TrueDepthCommandOptions : mapping::TrueDepthOptions {
+  std::string dataset;
+  int camera = 0;
+  std::string mission;
 };
 
 struct DepthConsistencyCommandOptions : mapping::DepthConsistencyOptions {
@@ -66,6 +75,11 @@ void Register(CommandRegistry* registry) {
           .Flag("min_view_depth_m", &B::min_view_depth_m, "a view sees surface from this depth [m]")
           .Flag("max_view_depth_m", &B::max_view_depth_m, "... up to this depth [m]")
           .PathFlag("json", &O::json, "also write the figures as JSON to this file")
+          .PathFlag("error_mesh_output_file", &O::error_mesh,
+                    "also write the mesh coloured by vertex error (green 0, red >= "
+                    "error_mesh_red_at_m) as PLY")
+          .Flag("error_mesh_red_at_m", &O::error_mesh_red_at_m,
+                "vertex error drawn full red in the error mesh [m]")
           .Run([](CommandContext& c, const O& o) {
             if (o.dataset.empty()) throw CommandError("--dataset: expected a vilma-sim dataset folder");
             const mapstore::VIMap& map = c.map();
@@ -101,6 +115,12 @@ void Register(CommandRegistry* registry) {
             const mapping::MeshEvaluation e =
                 mapping::EvaluateMesh(mesh, mapping::DepthViews(map, missions), world, S_W_G, o);
             c.out() << e.Report() << "\n";
+            if (!o.error_mesh.empty()) {
+              mapping::WriteMeshPly(
+                  mapping::ColorMeshByError(mesh, e.vertex_error_m, o.error_mesh_red_at_m),
+                  o.error_mesh);
+              c.out() << "wrote " << o.error_mesh << "\n";
+            }
             if (!o.json.empty()) {
               std::ostringstream json;
               json << "{\"mesh_vertices\": " << e.mesh_vertices
@@ -112,6 +132,35 @@ void Register(CommandRegistry* registry) {
               WriteFileAtomically(o.json, json.str());
               c.out() << "wrote " << o.json << "\n";
             }
+          }));
+
+  using T = TrueDepthCommandOptions;
+  registry->Add(
+      Command<T>("attach_true_depth")
+          .Group("dense")
+          .Summary("depth maps ray-cast in a simulated dataset's world from the map's poses "
+                   "(maps in the world frame, e.g. map-from-poses with gt): judges TSDF fusion "
+                   "apart from stereo")
+          .Usage("[DATASET]")
+          .Access(MapAccess::kModify)
+          .PathFlag("dataset", &T::dataset, "vilma-sim dataset folder (sim.yaml; required)")
+          .Positional("dataset")
+          .Flag("camera", &T::camera, "rig camera that gets depth")
+          .Flag("max_depth_m", &mapping::TrueDepthOptions::max_depth_m,
+                "farther surfaces give no depth [m]")
+          .Flag("mission", &T::mission,
+                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                {"map_mission"})
+          .Run([](CommandContext& c, const T& o) {
+            sim::World world;
+            if (o.dataset.empty() || !mapping::LoadDatasetWorld(o.dataset, &world)) {
+              throw CommandError("--dataset: expected a vilma-sim dataset folder (sim.yaml)");
+            }
+            mapping::TrueDepthOptions options = o;
+            options.cameras = {o.camera};
+            const int n = mapping::AttachTrueDepth(
+                &c.map(), mapping::ResolveMissions(c.map(), o.mission), world, options, c.progress());
+            c.out() << n << " true depth maps attached (camera " << o.camera << ")\n";
           }));
 
   using D = DepthConsistencyCommandOptions;

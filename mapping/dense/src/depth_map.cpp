@@ -148,7 +148,7 @@ DepthMap DecodeDepthMap(const std::string& bytes, const std::string& where) {
 mapstore::ResourceId DerivedResourceId(const mapstore::VertexId& vertex, int camera,
                                        const std::string& kind, const std::string& bytes) {
   // splitmix64-style mixing of the vertex id, camera, kind and content checksum: ids of
-  // different content differ (with the probability of 128-bit ids), equal content repeats.
+  // different content differ unless CRC-32 and size collide, equal content repeats.
   uint64_t seed = vertex.hi ^ (vertex.lo * 0x9e3779b97f4a7c15ull);
   seed ^= (static_cast<uint64_t>(camera) + 1) * 0xbf58476d1ce4e5b9ull;
   seed ^= static_cast<uint64_t>(mapstore::Crc32(kind)) << 32;

@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <map>
+#include <omp.h>
 #include <open3d/geometry/Image.h>
 #include <open3d/geometry/RGBDImage.h>
 #include <open3d/geometry/TriangleMesh.h>
@@ -31,6 +32,8 @@ std::string TsdfOptions::Validate() const {
   if (volume_unit_resolution < 4 || volume_unit_resolution > 64) return "volume_unit_resolution: 4..64";
   if (depth_sampling_stride < 1) return "depth_sampling_stride: >= 1";
   if (!(max_memory_mb > 0.0)) return "max_memory_mb: > 0";
+  if (!(mesh_min_weight >= 0.0)) return "mesh_min_weight: >= 0";
+  if (threads < 1) return "threads: >= 1";
   if (std::string e = filter.Validate(); !e.empty()) return "filter." + e;
   return "";
 }
@@ -97,13 +100,55 @@ double TsdfVolume::memory_mb() const {
   return volume_units() * voxels_per_unit * sizeof(open3d::geometry::TSDFVoxel) / (1024.0 * 1024.0);
 }
 
+double TsdfVolume::WeightAt(const Eigen::Vector3d& p_G) const {
+  const integration::ScalableTSDFVolume& volume = impl_->volume;
+  const double voxel = options_.voxel_size_m;
+  const int resolution = options_.volume_unit_resolution;
+  // Voxel centres sit at (i + 0.5) * voxel; the 8 around p are floor(p / voxel - 0.5) + {0, 1}.
+  const Eigen::Vector3d g = p_G / voxel - Eigen::Vector3d::Constant(0.5);
+  const Eigen::Vector3i base(static_cast<int>(std::floor(g.x())), static_cast<int>(std::floor(g.y())),
+                             static_cast<int>(std::floor(g.z())));
+  double sum = 0.0;
+  for (int corner = 0; corner < 8; ++corner) {
+    const Eigen::Vector3i v = base + Eigen::Vector3i(corner & 1, (corner >> 1) & 1, (corner >> 2) & 1);
+    const Eigen::Vector3i unit(static_cast<int>(std::floor(static_cast<double>(v.x()) / resolution)),
+                               static_cast<int>(std::floor(static_cast<double>(v.y()) / resolution)),
+                               static_cast<int>(std::floor(static_cast<double>(v.z()) / resolution)));
+    const auto it = volume.volume_units_.find(unit);
+    if (it == volume.volume_units_.end() || !it->second.volume_) continue;
+    const Eigen::Vector3i local = v - unit * resolution;
+    sum += it->second.volume_->voxels_[it->second.volume_->IndexOf(local)].weight_;
+  }
+  return sum / 8.0;
+}
+
 TriangleMesh TsdfVolume::ExtractMesh() const {
   const std::shared_ptr<open3d::geometry::TriangleMesh> o3d = impl_->volume.ExtractTriangleMesh();
   TriangleMesh mesh;
-  mesh.vertices = o3d->vertices_;
-  mesh.triangles = o3d->triangles_;
-  if (options_.color) mesh.colors = o3d->vertex_colors_;
-  return mesh;
+  std::vector<int> new_index(o3d->vertices_.size(), -1);
+  for (std::size_t i = 0; i < o3d->vertices_.size(); ++i) {
+    if (options_.mesh_min_weight > 0.0 && WeightAt(o3d->vertices_[i]) < options_.mesh_min_weight) continue;
+    new_index[i] = static_cast<int>(mesh.vertices.size());
+    mesh.vertices.push_back(o3d->vertices_[i]);
+    if (options_.color && i < o3d->vertex_colors_.size()) mesh.colors.push_back(o3d->vertex_colors_[i]);
+  }
+  for (const Eigen::Vector3i& t : o3d->triangles_) {
+    const Eigen::Vector3i n(new_index[t[0]], new_index[t[1]], new_index[t[2]]);
+    if (n.minCoeff() >= 0) mesh.triangles.push_back(n);
+  }
+  // Vertices whose triangles all went are dropped too.
+  std::vector<int> used(mesh.vertices.size(), 0);
+  for (const Eigen::Vector3i& t : mesh.triangles) used[t[0]] = used[t[1]] = used[t[2]] = 1;
+  TriangleMesh compact;
+  std::vector<int> remap(mesh.vertices.size(), -1);
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    if (!used[i]) continue;
+    remap[i] = static_cast<int>(compact.vertices.size());
+    compact.vertices.push_back(mesh.vertices[i]);
+    if (!mesh.colors.empty()) compact.colors.push_back(mesh.colors[i]);
+  }
+  for (const Eigen::Vector3i& t : mesh.triangles) compact.triangles.emplace_back(remap[t[0]], remap[t[1]], remap[t[2]]);
+  return compact;
 }
 
 namespace {
@@ -187,6 +232,7 @@ TsdfVolume FuseDepthResources(const mapstore::VIMap& map,
   }
 
   TsdfVolume volume(options);
+  omp_set_num_threads(options.threads);
   GrayViewCache gray_views;
   BeginProgress(progress, "TSDF integration", items.size());
   // Neighbours of an item: the items of the same mission and camera, in vertex order.

@@ -30,6 +30,17 @@ std::string MeshEvaluation::Report() const {
   return s.str();
 }
 
+TriangleMesh ColorMeshByError(const TriangleMesh& mesh, const std::vector<double>& vertex_error_m,
+                              double red_at_m) {
+  TriangleMesh colored = mesh;
+  colored.colors.resize(mesh.vertices.size());
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const double x = i < vertex_error_m.size() ? std::min(1.0, vertex_error_m[i] / red_at_m) : 1.0;
+    colored.colors[i] = Eigen::Vector3d(std::min(1.0, 2.0 * x), std::min(1.0, 2.0 * (1.0 - x)), 0.1);
+  }
+  return colored;
+}
+
 MeshEvaluation EvaluateMesh(const TriangleMesh& mesh_G, const std::vector<DepthView>& views_G,
                             const sim::World& world, const Alignment& S_W_G,
                             const MeshEvaluationOptions& options) {
@@ -45,6 +56,7 @@ MeshEvaluation EvaluateMesh(const TriangleMesh& mesh_G, const std::vector<DepthV
   distances.reserve(mesh_G.vertices.size());
   for (const Eigen::Vector3d& p_G : mesh_G.vertices) distances.push_back(sim::DistanceToWorld(world, to_W(p_G)));
   e.accuracy_m = ComputeErrorStats(distances);
+  e.vertex_error_m = distances;
   if (!distances.empty()) {
     const std::size_t k = std::min(distances.size() - 1, static_cast<std::size_t>(0.9 * distances.size()));
     std::nth_element(distances.begin(), distances.begin() + static_cast<std::ptrdiff_t>(k), distances.end());
@@ -65,8 +77,9 @@ MeshEvaluation EvaluateMesh(const TriangleMesh& mesh_G, const std::vector<DepthV
 
   // Completeness: samples of the true surfaces, in the mesh's frame G for the distance query.
   const Eigen::Matrix3d R_G_W = R_W_G.transpose();
-  const MeshDistanceIndex index(mesh_G, std::max(2.0 * options.completeness_threshold_m, 0.05));
+  // Queries are in G, so the threshold and the cells are in G's units (a sim3 alignment scales).
   const double threshold_G = options.completeness_threshold_m / S_W_G.scale;
+  const MeshDistanceIndex index(mesh_G, 2.0 * threshold_G);
   for (const sim::Quad& quad : world.quads) {
     const int nu = std::max(1, static_cast<int>(std::ceil(quad.edge_u_W.norm() / options.sample_spacing_m)));
     const int nv = std::max(1, static_cast<int>(std::ceil(quad.edge_v_W.norm() / options.sample_spacing_m)));

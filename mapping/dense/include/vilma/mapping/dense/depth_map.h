@@ -50,8 +50,8 @@ std::string EncodeDepthMap(const DepthMap& depth, double depth_unit_m = 0.001);
 DepthMap DecodeDepthMap(const std::string& bytes, const std::string& where);
 
 // A deterministic id for a resource of `vertex` camera `camera` with these bytes: the same
-// content gets the same id in every run, other content another id (resources are immutable per
-// id on disk, docs/vi-map.md).
+// content gets the same id in every run; other content gets another id unless its CRC-32 and
+// size both collide (resources are immutable per id on disk, docs/vi-map.md).
 mapstore::ResourceId DerivedResourceId(const mapstore::VertexId& vertex, int camera,
                                        const std::string& kind, const std::string& bytes);
 
@@ -70,7 +70,7 @@ Eigen::Matrix4d DepthViewPose(const mapstore::VIMap& map, const mapstore::Vertex
 struct DepthFilterOptions {
   int neighbours = 2;            // views before and after in the mission compared; 0: no filter
   int min_consistent_views = 1;
-  double relative_tolerance = 0.02;
+  double relative_tolerance = 0.04;
   std::string Validate() const;
 };
 

@@ -18,7 +18,8 @@ double PointTriangleDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
 
 class MeshDistanceIndex {
  public:
-  // `cell_size_m`: grid cell edge; queries are fastest with radii of about one cell.
+  // `cell_size_m`: grid cell edge; queries are fastest with radii of about one cell. The index
+  // refers to `mesh`, which must outlive it.
   MeshDistanceIndex(const TriangleMesh& mesh, double cell_size_m);
   // Distance to the nearest triangle if it is within `max_distance_m`, else +infinity.
   double Distance(const Eigen::Vector3d& p, double max_distance_m) const;

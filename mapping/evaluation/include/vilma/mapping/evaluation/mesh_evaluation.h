@@ -35,8 +35,13 @@ struct MeshEvaluation {
   std::size_t seen_samples = 0;     // seen by a view
   std::size_t covered_samples = 0;  // seen and within the threshold of the mesh
   double completeness = 0.0;        // covered / seen
+  std::vector<double> vertex_error_m;  // per mesh vertex: distance to the true surfaces
   std::string Report() const;
 };
+
+// The mesh with its vertices coloured by error: green (0) through yellow to red (>= red_at_m).
+TriangleMesh ColorMeshByError(const TriangleMesh& mesh, const std::vector<double>& vertex_error_m,
+                              double red_at_m);
 
 MeshEvaluation EvaluateMesh(const TriangleMesh& mesh_G, const std::vector<DepthView>& views_G,
                             const sim::World& world, const Alignment& S_W_G,
