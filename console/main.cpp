@@ -11,6 +11,7 @@
 #include "vilma/console/command.h"
 #include "vilma/console/console_main.h"
 #include "vilma/console/eval_command.h"
+#include "vilma/console/dense_kitti_command.h"
 #include "vilma/console/kitti_command.h"
 #include "vilma/console/localize_command.h"
 #include "vilma/console/locmap_command.h"
@@ -31,6 +32,8 @@ struct Subcommand {
 const Subcommand kSubcommands[] = {
     {"console", "the map console: load, merge, optimize, keyframe, export maps (interactive or batch)",
      &vilma::console::RunConsoleCommand},
+    {"dense-kitti", "dense reconstruction of a KITTI stereo slice with its poses (SGBM, TSDF, PLY mesh)",
+     &vilma::console::RunDenseKittiCommand},
     {"eval", "trajectory error (ATE, RPE) of an estimate against ground truth",
      &vilma::console::RunEvalCommand},
     {"localize", "offline map check: localize every Nth frame of a dataset against a map",

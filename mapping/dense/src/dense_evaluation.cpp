@@ -59,11 +59,60 @@ std::string DepthConsistency::BriefReport() const {
   return s.str();
 }
 
+namespace {
+
+// Appends |depth predicted from a - depth measured in b| (and relative) for a's points.
+void AccumulateDifferences(const PosedDepth& a, const PosedDepth& b, int stride,
+                           std::vector<double>* abs_diff, std::vector<double>* rel_diff) {
+  const DepthMap& da = *a.depth;
+  const DepthMap& db = *b.depth;
+  const Eigen::Matrix4d T_B_A = b.T_G_D.inverse() * a.T_G_D;
+  for (int v = 0; v < da.height(); v += stride) {
+    for (int u = 0; u < da.width(); u += stride) {
+      const float z = da.depth_m.at<float>(v, u);
+      if (!(z > 0.0f)) continue;
+      const Eigen::Vector4d p_A(z * (u - da.cx) / da.fx, z * (v - da.cy) / da.fy, z, 1.0);
+      const Eigen::Vector4d p_B = T_B_A * p_A;
+      if (p_B.z() <= 0.0) continue;
+      const long ub = std::lround(db.fx * p_B.x() / p_B.z() + db.cx);
+      const long vb = std::lround(db.fy * p_B.y() / p_B.z() + db.cy);
+      if (ub < 0 || vb < 0 || ub >= db.width() || vb >= db.height()) continue;
+      const float z_b = db.depth_m.at<float>(static_cast<int>(vb), static_cast<int>(ub));
+      if (!(z_b > 0.0f)) continue;
+      const double diff = std::abs(p_B.z() - z_b);
+      abs_diff->push_back(diff);
+      rel_diff->push_back(diff / z_b);
+    }
+  }
+}
+
+DepthConsistency Summarize(int pairs, const std::vector<double>& abs_diff,
+                           const std::vector<double>& rel_diff) {
+  DepthConsistency result;
+  result.pairs = pairs;
+  result.overlapping_points = static_cast<long>(abs_diff.size());
+  result.median_abs_m = Percentile(abs_diff, 0.5);
+  result.p90_abs_m = Percentile(abs_diff, 0.9);
+  result.median_relative = Percentile(rel_diff, 0.5);
+  return result;
+}
+
+}  // namespace
+
+DepthConsistency MeasureDepthConsistency(const std::vector<std::pair<PosedDepth, PosedDepth>>& pairs,
+                                         const DepthConsistencyOptions& options) {
+  ThrowIfInvalid(options.Validate(), "depth consistency options");
+  std::vector<double> abs_diff, rel_diff;
+  for (const auto& [a, b] : pairs) AccumulateDifferences(a, b, options.pixel_stride, &abs_diff, &rel_diff);
+  return Summarize(static_cast<int>(pairs.size()), abs_diff, rel_diff);
+}
+
 DepthConsistency MeasureDepthConsistency(const mapstore::VIMap& map,
                                          const std::vector<mapstore::MissionId>& missions,
                                          const DepthConsistencyOptions& options) {
   ThrowIfInvalid(options.Validate(), "depth consistency options");
-  DepthConsistency result;
+  // Pair by pair, so that only two depth maps are decoded at a time.
+  int pairs = 0;
   std::vector<double> abs_diff, rel_diff;
   for (const mapstore::MissionId& mid : missions.empty() ? map.mission_ids() : missions) {
     const std::vector<mapstore::VertexId>& vertices = map.vertex_ids(mid);
@@ -74,34 +123,14 @@ DepthConsistency MeasureDepthConsistency(const mapstore::VIMap& map,
         if (!a.frames[c].depth_resource_id.IsValid() || !b.frames[c].depth_resource_id.IsValid()) continue;
         const DepthMap da = LoadDepthMap(map, a.id, c);
         const DepthMap db = LoadDepthMap(map, b.id, c);
-        const Eigen::Matrix4d T_B_A =
-            DepthViewPose(map, b.id, c, db).inverse() * DepthViewPose(map, a.id, c, da);
-        ++result.pairs;
-        for (int v = 0; v < da.height(); v += options.pixel_stride) {
-          for (int u = 0; u < da.width(); u += options.pixel_stride) {
-            const float z = da.depth_m.at<float>(v, u);
-            if (!(z > 0.0f)) continue;
-            const Eigen::Vector4d p_A(z * (u - da.cx) / da.fx, z * (v - da.cy) / da.fy, z, 1.0);
-            const Eigen::Vector4d p_B = T_B_A * p_A;
-            if (p_B.z() <= 0.0) continue;
-            const long ub = std::lround(db.fx * p_B.x() / p_B.z() + db.cx);
-            const long vb = std::lround(db.fy * p_B.y() / p_B.z() + db.cy);
-            if (ub < 0 || vb < 0 || ub >= db.width() || vb >= db.height()) continue;
-            const float z_b = db.depth_m.at<float>(static_cast<int>(vb), static_cast<int>(ub));
-            if (!(z_b > 0.0f)) continue;
-            const double diff = std::abs(p_B.z() - z_b);
-            abs_diff.push_back(diff);
-            rel_diff.push_back(diff / z_b);
-          }
-        }
+        AccumulateDifferences({&da, DepthViewPose(map, a.id, c, da)},
+                              {&db, DepthViewPose(map, b.id, c, db)}, options.pixel_stride,
+                              &abs_diff, &rel_diff);
+        ++pairs;
       }
     }
   }
-  result.overlapping_points = static_cast<long>(abs_diff.size());
-  result.median_abs_m = Percentile(abs_diff, 0.5);
-  result.p90_abs_m = Percentile(abs_diff, 0.9);
-  result.median_relative = Percentile(rel_diff, 0.5);
-  return result;
+  return Summarize(pairs, abs_diff, rel_diff);
 }
 
 }  // namespace vilma::mapping

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "vilma/mapping/dense/depth_map.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping {
@@ -37,6 +38,10 @@ struct DepthConsistency {
   double median_relative = 0.0;  // median of |difference| / depth
   std::string BriefReport() const;
 };
+
+// The same over given pairs of posed depth maps (the first's points checked in the second).
+DepthConsistency MeasureDepthConsistency(const std::vector<std::pair<PosedDepth, PosedDepth>>& pairs,
+                                         const DepthConsistencyOptions& options = {});
 
 // Each depth map's points (every pixel_stride-th pixel) are moved into the depth view of the
 // same camera of the next vertex and compared with the depth measured there (nearest pixel).
