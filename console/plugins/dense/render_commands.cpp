@@ -6,9 +6,13 @@
 namespace vilma::console {
 namespace {
 
+// clip_above_z_m at or beyond this: no clipping.
+constexpr double kNoClip = 1e9;
+
 struct RenderMeshCommandOptions {
   std::string mesh;  // PLY file
   std::string out;   // PNG file
+  double clip_above_z_m = kNoClip;
   mapping::MeshRenderOptions render;
   std::string Validate() const {
     if (mesh.empty()) return "mesh: a triangle mesh file (PLY)";
@@ -50,8 +54,15 @@ void Register(CommandRegistry* registry) {
           .FlagAt(
               "shading", [](R& o) -> std::string& { return o.render.shading; },
               "flat (a normal per triangle) or gouraud (per vertex, interpolated)")
+          .Flag("clip_above_z_m", &R::clip_above_z_m,
+                "leave out triangles above this height, e.g. a room's ceiling [m] (default: "
+                "none)")
           .Run([](CommandContext& c, const R& o) {
-            const mapping::RenderMesh mesh = mapping::ReadMeshFile(o.mesh);
+            mapping::RenderMesh mesh = mapping::ReadMeshFile(o.mesh);
+            if (o.clip_above_z_m < kNoClip) mesh = mapping::ClipAboveZ(mesh, o.clip_above_z_m);
+            if (mesh.triangles.empty()) {
+              throw CommandError("no triangle of " + o.mesh + " lies below --clip_above_z_m");
+            }
             const mapping::MeshRenderResult result = mapping::RenderMeshImage(mesh, o.render);
             mapping::WritePngAtomically(o.out, result.image);
             c.out() << "render_mesh: " << o.out << ": " << mesh.vertices.size() << " vertices, "

@@ -182,6 +182,17 @@ std::string MeshRenderResult::BriefReport() const {
   return s.str();
 }
 
+RenderMesh ClipAboveZ(const RenderMesh& mesh, double z_m) {
+  RenderMesh clipped = mesh;
+  clipped.triangles.clear();
+  for (const Eigen::Vector3i& t : mesh.triangles) {
+    bool below = true;
+    for (int k = 0; k < 3; ++k) below = below && mesh.vertices[static_cast<std::size_t>(t[k])].z() <= z_m;
+    if (below) clipped.triangles.push_back(t);
+  }
+  return clipped;
+}
+
 MeshRenderResult RenderMeshImage(const RenderMesh& mesh, const MeshRenderOptions& options) {
   std::string problem = options.Validate();
   if (!problem.empty()) throw std::invalid_argument("render mesh: options: " + problem);

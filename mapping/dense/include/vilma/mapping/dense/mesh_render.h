@@ -77,6 +77,10 @@ struct MeshRenderResult {
 // Renders `mesh`. Throws std::invalid_argument for invalid options or an unusable mesh.
 MeshRenderResult RenderMeshImage(const RenderMesh& mesh, const MeshRenderOptions& options);
 
+// The triangles whose three vertices lie at or below z_m (a room's ceiling cut off so that its
+// inside shows from above); unused vertices are kept.
+RenderMesh ClipAboveZ(const RenderMesh& mesh, double z_m);
+
 // A PLY (or another format Open3D reads) triangle mesh with its vertex colours. Throws
 // InputError naming the file when it does not exist, cannot be read, or holds no triangle.
 RenderMesh ReadMeshFile(const std::string& path);
