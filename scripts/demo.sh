@@ -8,7 +8,8 @@
 #   5. run the odometry on the real EuRoC slice (static start: drift and tilt);
 #   6. map then localize: vilma-estimatord builds a VI-map of the room session (--save-map),
 #   7. processes the map in the console (vilma console --script: statistics, landmark quality,
-#      keyframing, consistency, exports to CSV / TUM / PLY / COLMAP, a PNG and an HTML view),
+#      keyframing, consistency, exports to CSV / TUM / PLY / COLMAP, a PNG and an HTML view,
+#      dense reconstruction: stereo depth, TSDF, a mesh and its picture),
 #   8. then localizes a second session of the same room against the processed map
 #      (--localization-map) and publishes VILMA_POSE, evaluated against its ground truth.
 # Generated data goes to ${VILMA_CACHE:-~/.cache/vilma}/demo, never into the repository.
@@ -115,6 +116,16 @@ remove_bad_landmarks
 map_stats
 check_map_consistency
 save --out=$loc/map-keyframed
+# Dense reconstruction of the keyframed map (docs/dense.md): its stereo images from the dataset,
+# SGBM depth per keyframe, TSDF fusion with the optimized poses, a mesh judged against the
+# simulator's true surfaces, and a picture of it with the ceiling cut off.
+attach_images $sim
+stereo_dense_reconstruction
+depth_consistency
+create_tsdf_from_depth_resource --dense_tsdf_voxel_size_m=0.05 --dense_tsdf_truncation_distance_m=0.15
+export_tsdf --dense_result_mesh_output_file=$loc/console/room-mesh.ply
+eval_mesh $sim
+render_mesh $loc/console/room-mesh.ply $loc/console/room-mesh.png --view=custom --elevation_deg=60 --clip_above_z_m=2.5
 list
 SCRIPT
 "$bin/vilma" console --script "$loc/process.vilma"
