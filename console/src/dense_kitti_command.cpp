@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
+#include <sstream>
 
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
@@ -123,6 +124,13 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
     if (directory.empty()) throw UsageError("expected a KITTI_DIR");
     if (mesh_path.empty()) throw UsageError("--out: expected the PLY file to write");
     if (every < 1) throw UsageError("--every: expected N >= 1");
+    if (!(stereo.max_depth_m > stereo.min_depth_m)) {
+      throw UsageError("--max-depth: expected more than " + Fixed(stereo.min_depth_m, 1) +
+                       " m (the nearest depth taken from SGBM)");
+    }
+    // The depth maps stay in memory as floats: the 16-bit unit of stored depth resources must
+    // not cap --max-depth at 65.5 m (KITTI sees farther).
+    stereo.depth_unit_m = std::max(stereo.depth_unit_m, stereo.max_depth_m / 65535.0);
     if (std::string e = stereo.Validate(); !e.empty()) throw UsageError(e);
     if (std::string e = tsdf.Validate(); !e.empty()) throw UsageError(e);
   } catch (const UsageError& e) {

@@ -2,11 +2,15 @@
 // to keep the test short): attach_images, stereo_dense_reconstruction,
 // create_tsdf_from_depth_resource, export_tsdf, eval_mesh, depth_consistency, render_mesh; and
 // what must fail: stereo on a mono map (map unchanged), export_tsdf without a TSDF, after a
-// command that changed the map, and to a path that cannot be written.
+// command that changed the map, and to a path that cannot be written. attach_true_depth (ray-cast
+// depth) fused and judged with eval_mesh --error_mesh_output_file; attach_true_depth without a
+// simulated dataset or with a camera the rig lacks fails and leaves the map unchanged.
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <open3d/geometry/TriangleMesh.h>
+#include <open3d/io/TriangleMeshIO.h>
 
 #include "console_plugins/test_maps.h"
 
@@ -162,6 +166,90 @@ TEST_CASE("stereo_dense_reconstruction refuses a mono map and leaves it unchange
   const CommandResult consistency = f.Run("depth_consistency");
   CHECK(consistency.outcome == CommandOutcome::kFailed);
   CHECK_THAT(consistency.message, Contains("no two consecutive vertices have depth maps"));
+}
+
+TEST_CASE("attach_true_depth: true depth fused and judged with an error mesh, and what must fail") {
+  const auto& maps = test::TestMaps();
+  const std::string dir = test::ConsoleScratch("dense_true_depth");
+  Fixture f;
+  REQUIRE(f.Run("load " + maps.stereo_map).ok());
+  // Ray-casting takes 0.4 s per depth map: every 10th vertex.
+  RunOk(f, "keyframe_heuristic --kf_every_nth_vertex 10 --kf_distance_threshold_m 100 "
+           "--kf_rotation_threshold_deg 180");
+  const std::size_t vertices = f.map().num_vertices();
+  REQUIRE(vertices >= 8);
+
+  // Without a simulated dataset (none given, a folder without sim.yaml) or with a camera the
+  // rig lacks: an error, the map unchanged.
+  const DepthState before = Depths(f.map());
+  CHECK(before.depth_frames == 0);
+  for (const std::string& line :
+       {std::string("attach_true_depth"), "attach_true_depth " + maps.stereo_map,
+        "attach_true_depth " + dir + "/nowhere"}) {
+    INFO(line);
+    const CommandResult r = f.Run(line);
+    CHECK(r.outcome == CommandOutcome::kFailed);
+    CHECK_THAT(r.message, Contains("--dataset: expected a vilma-sim dataset folder (sim.yaml)"));
+  }
+  CommandResult r = f.Run("attach_true_depth " + maps.stereo_dataset + " --camera 2");
+  CHECK(r.outcome == CommandOutcome::kFailed);
+  CHECK_THAT(r.message, Contains("cameras: expected indices below 2, found 2"));
+  r = f.Run("attach_true_depth " + maps.stereo_dataset + " --max_depth_m 0");
+  CHECK(r.outcome == CommandOutcome::kFailed);
+  CHECK_THAT(r.message, Contains("max_depth_m"));
+  const DepthState unchanged = Depths(f.map());
+  CHECK(unchanged.depth_frames == 0);
+  CHECK(unchanged.ids == before.ids);
+  CHECK(unchanged.resources == before.resources);
+
+  // The test map is a VIO map (its frame G is not the simulator's world W), so the ray-cast
+  // depth is not the true depth of what the cameras saw: only that the chain runs is checked.
+  const std::string attached = RunOk(f, "attach_true_depth " + maps.stereo_dataset + " --camera 1");
+  CHECK_THAT(attached, Contains(std::to_string(vertices) + " true depth maps attached (camera 1)"));
+  const DepthState after = Depths(f.map());
+  CHECK(after.depth_frames == vertices);
+  CHECK(after.resources == before.resources + vertices);
+
+  // Views 1 s apart: no neighbour filter, surface seen once kept.
+  const std::string tsdf = RunOk(f, "create_tsdf_from_depth_resource --dense_tsdf_voxel_size_m 0.1 "
+                                    "--dense_depth_filter_neighbours 0 --dense_mesh_min_weight 1");
+  CHECK_THAT(tsdf, Contains("TSDF: " + std::to_string(vertices) + " depth maps of 1 mission(s) fused"));
+
+  // The depth was cast from the map's poses as if G were W, so without alignment the fused
+  // surface lies on the world's (1 mm median, 2.5 cm p90 with 10 cm voxels when written).
+  const std::string exact = RunOk(f, "eval_mesh " + maps.stereo_dataset + " --align none");
+  INFO(exact);
+  CHECK(NumberAfter(exact, "accuracy (to the true surfaces) median ") < 0.01);
+  CHECK(NumberAfter(exact, " m, p90 ") < 0.05);
+  CHECK(NumberAfter(exact, "completeness ") > 50.0);
+
+  const std::string error_mesh = dir + "/error.ply";
+  const std::string eval = RunOk(f, "eval_mesh " + maps.stereo_dataset +
+                                        " --align posyaw --error_mesh_output_file " + error_mesh +
+                                        " --error_mesh_red_at_m 0.05");
+  INFO(eval);
+  CHECK_THAT(eval, Contains("wrote " + error_mesh));
+  const double mesh_vertices = NumberAfter(eval, "mesh: ");
+  CHECK(mesh_vertices > 1000);
+  REQUIRE(fs::is_regular_file(error_mesh));
+  CHECK(!fs::exists(error_mesh + ".partial.ply"));
+  const std::string header = test::ReadTextFile(error_mesh).substr(0, 400);
+  CHECK_THAT(header, Contains("property uchar red") && Contains("property uchar green") &&
+                         Contains("property uchar blue"));
+  open3d::geometry::TriangleMesh read;
+  REQUIRE(open3d::io::ReadTriangleMesh(error_mesh, read));
+  CHECK(static_cast<double>(read.vertices_.size()) == mesh_vertices);
+  CHECK(!read.triangles_.empty());
+  REQUIRE(read.vertex_colors_.size() == read.vertices_.size());
+  // Green (0 error) to red (>= 5 cm) through yellow, a little blue: one of red and green is full.
+  int off_scale = 0, green = 0, red = 0;
+  for (const Eigen::Vector3d& c : read.vertex_colors_) {
+    off_scale += std::abs(c.z() - 0.1) > 0.01 || std::max(c.x(), c.y()) < 0.99;
+    green += c.x() < 0.5;
+    red += c.y() < 0.5;
+  }
+  CHECK(off_scale == 0);
+  CHECK(green + red > 0);
 }
 
 }  // namespace

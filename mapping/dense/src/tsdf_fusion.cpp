@@ -53,6 +53,36 @@ std::string TsdfSummary::BriefReport() const {
   return s.str();
 }
 
+namespace {
+
+// OpenMP threads of Open3D's integration for one call (TsdfOptions::threads), the caller's
+// settings restored after it. Open3D 0.16's loops ask for num_threads(EstimateMaxThreads()):
+// the number of physical cores, whatever omp_set_num_threads said, unless OMP_NUM_THREADS or
+// OMP_DYNAMIC is in the environment. So one thread is enforced by allowing no active parallel
+// level (every region then runs on the calling thread alone); more threads are asked for with
+// omp_set_num_threads, which Open3D honours only when one of those variables is set (else it
+// takes every core).
+class OmpThreadsForCall {
+ public:
+  explicit OmpThreadsForCall(int threads)
+      : num_threads_(omp_get_max_threads()), max_active_levels_(omp_get_max_active_levels()) {
+    omp_set_num_threads(threads);
+    if (threads == 1) omp_set_max_active_levels(0);
+  }
+  ~OmpThreadsForCall() {
+    omp_set_max_active_levels(max_active_levels_);
+    omp_set_num_threads(num_threads_);
+  }
+  OmpThreadsForCall(const OmpThreadsForCall&) = delete;
+  OmpThreadsForCall& operator=(const OmpThreadsForCall&) = delete;
+
+ private:
+  int num_threads_;
+  int max_active_levels_;
+};
+
+}  // namespace
+
 struct TsdfVolume::Impl {
   explicit Impl(const TsdfOptions& o)
       : volume(o.voxel_size_m, o.truncation_distance_m,
@@ -90,6 +120,7 @@ void TsdfVolume::Integrate(const float* depth_m, const float* gray, int width, i
   const open3d::camera::PinholeCameraIntrinsic intrinsic(width, height, fx, fy, cx, cy);
   // Open3D takes the extrinsic as world -> camera: T_D_G.
   const Eigen::Matrix4d T_D_G = T_G_D.inverse();
+  const OmpThreadsForCall threads(options_.threads);
   impl_->volume.Integrate(*rgbd, intrinsic, T_D_G);
 }
 
@@ -232,7 +263,6 @@ TsdfVolume FuseDepthResources(const mapstore::VIMap& map,
   }
 
   TsdfVolume volume(options);
-  omp_set_num_threads(options.threads);
   GrayViewCache gray_views;
   BeginProgress(progress, "TSDF integration", items.size());
   // Neighbours of an item: the items of the same mission and camera, in vertex order.
