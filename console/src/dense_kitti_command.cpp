@@ -203,7 +203,7 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
     if (!render_path.empty()) {
       // KITTI's world is the first left camera (x right, y down, z ahead); the picture's views
       // take z as up, so the mesh is drawn turned by (x, y, z) -> (x, z, -y).
-      mapping::RenderMesh drawable{{}, mesh.triangles, {}};
+      mapping::TriangleMesh drawable{{}, mesh.triangles, {}};
       for (const Eigen::Vector3d& p : mesh.vertices) drawable.vertices.emplace_back(p.x(), p.z(), -p.y());
       mapping::MeshRenderOptions view;
       view.view = "top";

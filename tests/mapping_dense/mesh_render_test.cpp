@@ -21,19 +21,19 @@ namespace {
 const cv::Vec3b kWhite(255, 255, 255);
 
 // A square in the x-z plane at y (facing -y, the front view's camera), half size s.
-void AddSquareXZ(double y, double s, const Eigen::Vector3d& rgb, RenderMesh* mesh) {
+void AddSquareXZ(double y, double s, const Eigen::Vector3d& rgb, TriangleMesh* mesh) {
   const int base = static_cast<int>(mesh->vertices.size());
   mesh->vertices.push_back({-s, y, -s});
   mesh->vertices.push_back({s, y, -s});
   mesh->vertices.push_back({s, y, s});
   mesh->vertices.push_back({-s, y, s});
-  for (int k = 0; k < 4; ++k) mesh->vertex_colors.push_back(rgb);
+  for (int k = 0; k < 4; ++k) mesh->colors.push_back(rgb);
   mesh->triangles.push_back({base, base + 1, base + 2});
   mesh->triangles.push_back({base, base + 2, base + 3});
 }
 
-RenderMesh UnitCube() {
-  RenderMesh mesh;
+TriangleMesh UnitCube() {
+  TriangleMesh mesh;
   for (int i = 0; i < 8; ++i)
     mesh.vertices.push_back({double(i & 1), double((i >> 1) & 1), double((i >> 2) & 1)});
   // Two triangles per face (corner indices: bit 0 x, bit 1 y, bit 2 z).
@@ -56,7 +56,7 @@ fs::path TempDir() {
 }  // namespace
 
 TEST_CASE("render mesh: a square facing the camera covers its projected rectangle", "[dense]") {
-  RenderMesh mesh;
+  TriangleMesh mesh;
   AddSquareXZ(0.0, 1.0, Eigen::Vector3d(0.6, 0.6, 0.6), &mesh);
   MeshRenderOptions options;
   options.view = "front";
@@ -102,7 +102,7 @@ TEST_CASE("render mesh: a square facing the camera covers its projected rectangl
 
   // Turned by 60 deg about z: shade = ambient + (1 - ambient) cos 60 = 0.625 -> 0.6 * 0.625 *
   // 255 = 95.6.
-  RenderMesh turned = mesh;
+  TriangleMesh turned = mesh;
   const Eigen::Matrix3d R = Eigen::AngleAxisd(M_PI / 3.0, Eigen::Vector3d::UnitZ()).matrix();
   for (Eigen::Vector3d& v : turned.vertices) v = R * v;
   const MeshRenderResult t = RenderMeshImage(turned, options);
@@ -113,7 +113,7 @@ TEST_CASE("render mesh: a square facing the camera covers its projected rectangl
 TEST_CASE("render mesh: the nearer triangle wins, whatever the drawing order", "[dense]") {
   const Eigen::Vector3d red(1, 0, 0), blue(0, 0, 1);
   for (const bool near_first : {true, false}) {
-    RenderMesh mesh;
+    TriangleMesh mesh;
     // The front camera looks along +y: y = -0.5 is nearer than y = 0.5.
     if (near_first) AddSquareXZ(-0.5, 0.25, red, &mesh);
     AddSquareXZ(0.5, 1.0, blue, &mesh);
@@ -140,7 +140,7 @@ TEST_CASE("render mesh: the nearer triangle wins, whatever the drawing order", "
 }
 
 TEST_CASE("render mesh: views and flat shading of a cube", "[dense]") {
-  const RenderMesh cube = UnitCube();
+  const TriangleMesh cube = UnitCube();
   MeshRenderOptions options;
   options.width_px = 400;
   options.height_px = 300;
@@ -199,17 +199,17 @@ TEST_CASE("render mesh: PLY in, PNG out, and bad input", "[dense]") {
   const fs::path dir = TempDir();
   // A coloured PLY through Open3D.
   open3d::geometry::TriangleMesh o3d;
-  RenderMesh cube = UnitCube();
+  TriangleMesh cube = UnitCube();
   o3d.vertices_ = cube.vertices;
   o3d.triangles_ = cube.triangles;
   o3d.vertex_colors_.assign(cube.vertices.size(), Eigen::Vector3d(0.2, 0.6, 0.9));
   const std::string ply = (dir / "cube.ply").string();
   REQUIRE(open3d::io::WriteTriangleMesh(ply, o3d));
-  const RenderMesh read = ReadMeshFile(ply);
+  const TriangleMesh read = ReadMeshFile(ply);
   CHECK(read.vertices.size() == 8);
   CHECK(read.triangles.size() == 12);
-  REQUIRE(read.vertex_colors.size() == 8);
-  CHECK(read.vertex_colors[3].isApprox(Eigen::Vector3d(0.2, 0.6, 0.9), 1e-2));
+  REQUIRE(read.colors.size() == 8);
+  CHECK(read.colors[3].isApprox(Eigen::Vector3d(0.2, 0.6, 0.9), 1e-2));
   const MeshRenderResult r = RenderMeshImage(read, MeshRenderOptions());
   const std::string png = (dir / "cube.png").string();
   WritePngAtomically(png, r.image);
@@ -239,14 +239,14 @@ TEST_CASE("render mesh: PLY in, PNG out, and bad input", "[dense]") {
                   InputError);
 
   // Meshes and options.
-  RenderMesh bad = cube;
+  TriangleMesh bad = cube;
   bad.triangles.push_back({0, 1, 8});
   CHECK_THAT(bad.Validate(), Catch::Contains("triangle 12"));
   CHECK_THROWS_AS(RenderMeshImage(bad, MeshRenderOptions()), std::invalid_argument);
   bad = cube;
-  bad.vertex_colors.resize(3);
-  CHECK_THAT(bad.Validate(), Catch::Contains("vertex_colors"));
-  CHECK_THAT(RenderMesh().Validate(), Catch::Contains("triangles"));
+  bad.colors.resize(3);
+  CHECK_THAT(bad.Validate(), Catch::Contains("colors"));
+  CHECK_THAT(TriangleMesh().Validate(), Catch::Contains("triangles"));
   bad = cube;
   bad.vertices[0].x() = std::nan("");
   CHECK_THAT(bad.Validate(), Catch::Contains("finite"));

@@ -1,8 +1,6 @@
 // Judging dense results (docs/dense.md): eval_mesh against a simulated dataset's true surfaces,
 // depth_consistency between neighbouring keyframes (any dataset).
 #include <memory>
-#include <open3d/geometry/TriangleMesh.h>
-#include <open3d/io/TriangleMeshIO.h>
 
 #include "vilma/console/command_registry.h"
 #include "vilma/core/asl_dataset.h"
@@ -36,17 +34,6 @@ struct TrueDepthCommandOptions : mapping::TrueDepthOptions {
 struct DepthConsistencyCommandOptions : mapping::DepthConsistencyOptions {
   std::string mission;
 };
-
-mapping::TriangleMesh ReadMesh(const std::string& path) {
-  open3d::geometry::TriangleMesh o3d;
-  if (!open3d::io::ReadTriangleMesh(path, o3d) || o3d.triangles_.empty()) {
-    throw CommandError(path + ": expected a triangle mesh file (PLY, OBJ, OFF) with triangles");
-  }
-  mapping::TriangleMesh mesh;
-  mesh.vertices = o3d.vertices_;
-  mesh.triangles = o3d.triangles_;
-  return mesh;
-}
 
 void Register(CommandRegistry* registry) {
   using O = EvalMeshCommandOptions;
@@ -102,7 +89,7 @@ void Register(CommandRegistry* registry) {
             }
             mapping::TriangleMesh mesh;
             if (!o.mesh.empty()) {
-              mesh = ReadMesh(o.mesh);
+              mesh = mapping::ReadMeshFile(o.mesh);
             } else {
               const auto& derived = c.maps().Get(c.map_key()).derived;
               const auto it = derived.find("tsdf");

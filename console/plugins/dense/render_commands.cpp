@@ -58,7 +58,7 @@ void Register(CommandRegistry* registry) {
                 "leave out triangles above this height, e.g. a room's ceiling [m] (default: "
                 "none)")
           .Run([](CommandContext& c, const R& o) {
-            mapping::RenderMesh mesh = mapping::ReadMeshFile(o.mesh);
+            mapping::TriangleMesh mesh = mapping::ReadMeshFile(o.mesh);
             if (o.clip_above_z_m < kNoClip) mesh = mapping::ClipAboveZ(mesh, o.clip_above_z_m);
             if (mesh.triangles.empty()) {
               throw CommandError("no triangle of " + o.mesh + " lies below --clip_above_z_m");

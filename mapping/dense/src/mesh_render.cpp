@@ -1,7 +1,5 @@
 #include "vilma/mapping/dense/mesh_render.h"
 
-#include <open3d/geometry/TriangleMesh.h>
-#include <open3d/io/TriangleMeshIO.h>
 
 #include <algorithm>
 #include <cmath>
@@ -26,7 +24,7 @@ double Edge(const Eigen::Vector2d& a, const Eigen::Vector2d& b, const Eigen::Vec
 }
 
 // Unit normal of triangle t (zero for a degenerate one).
-Eigen::Vector3d FaceNormal(const RenderMesh& mesh, const Eigen::Vector3i& t) {
+Eigen::Vector3d FaceNormal(const TriangleMesh& mesh, const Eigen::Vector3i& t) {
   const Eigen::Vector3d& a = mesh.vertices[static_cast<std::size_t>(t[0])];
   const Eigen::Vector3d& b = mesh.vertices[static_cast<std::size_t>(t[1])];
   const Eigen::Vector3d& c = mesh.vertices[static_cast<std::size_t>(t[2])];
@@ -35,9 +33,9 @@ Eigen::Vector3d FaceNormal(const RenderMesh& mesh, const Eigen::Vector3i& t) {
   return norm > 0.0 ? Eigen::Vector3d(n / norm) : Eigen::Vector3d::Zero();
 }
 
-Eigen::Vector3d BaseColor(const RenderMesh& mesh, const MeshRenderOptions& options, int vertex) {
-  return mesh.vertex_colors.empty() ? options.color
-                                    : mesh.vertex_colors[static_cast<std::size_t>(vertex)];
+Eigen::Vector3d BaseColor(const TriangleMesh& mesh, const MeshRenderOptions& options, int vertex) {
+  return mesh.colors.empty() ? options.color
+                                    : mesh.colors[static_cast<std::size_t>(vertex)];
 }
 
 // Lambert with a headlight, a directional light along the viewing axis (OpenGL's light in eye
@@ -48,26 +46,6 @@ double Shade(const Eigen::Vector3d& n, const Eigen::Vector3d& l, double ambient)
 }
 
 }  // namespace
-
-std::string RenderMesh::Validate() const {
-  if (triangles.empty()) return "triangles: expected at least one triangle";
-  for (const Eigen::Vector3d& v : vertices) {
-    if (!v.allFinite()) return "vertices: expected finite coordinates";
-  }
-  const int n = static_cast<int>(vertices.size());
-  for (std::size_t i = 0; i < triangles.size(); ++i) {
-    const Eigen::Vector3i& t = triangles[i];
-    if (t.minCoeff() < 0 || t.maxCoeff() >= n) {
-      return "triangles: triangle " + std::to_string(i) + " has a vertex index outside [0, " +
-             std::to_string(n) + ")";
-    }
-  }
-  if (!vertex_colors.empty() && vertex_colors.size() != vertices.size()) {
-    return "vertex_colors: expected none or one per vertex (" + std::to_string(vertices.size()) +
-           "), got " + std::to_string(vertex_colors.size());
-  }
-  return "";
-}
 
 std::string MeshRenderOptions::Validate() const {
   if (width_px < 8 || width_px > 16384) return "width_px: expected 8 .. 16384";
@@ -97,7 +75,7 @@ bool MeshRenderCamera::Project(const Eigen::Vector3d& p_W, Eigen::Vector2d* uv) 
   return true;
 }
 
-MeshRenderCamera MakeMeshRenderCamera(const RenderMesh& mesh, const MeshRenderOptions& options) {
+MeshRenderCamera MakeMeshRenderCamera(const TriangleMesh& mesh, const MeshRenderOptions& options) {
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
   for (const Eigen::Vector3i& t : mesh.triangles) {
@@ -182,8 +160,8 @@ std::string MeshRenderResult::BriefReport() const {
   return s.str();
 }
 
-RenderMesh ClipAboveZ(const RenderMesh& mesh, double z_m) {
-  RenderMesh clipped = mesh;
+TriangleMesh ClipAboveZ(const TriangleMesh& mesh, double z_m) {
+  TriangleMesh clipped = mesh;
   clipped.triangles.clear();
   for (const Eigen::Vector3i& t : mesh.triangles) {
     bool below = true;
@@ -193,7 +171,7 @@ RenderMesh ClipAboveZ(const RenderMesh& mesh, double z_m) {
   return clipped;
 }
 
-MeshRenderResult RenderMeshImage(const RenderMesh& mesh, const MeshRenderOptions& options) {
+MeshRenderResult RenderMeshImage(const TriangleMesh& mesh, const MeshRenderOptions& options) {
   std::string problem = options.Validate();
   if (!problem.empty()) throw std::invalid_argument("render mesh: options: " + problem);
   problem = mesh.Validate();
@@ -308,30 +286,6 @@ MeshRenderResult RenderMeshImage(const RenderMesh& mesh, const MeshRenderOptions
     }
   }
   return result;
-}
-
-RenderMesh ReadMeshFile(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) {
-    throw InputError(FormatInputError(path, "", "an existing mesh file (PLY, OBJ, OFF)"));
-  }
-  open3d::geometry::TriangleMesh o3d_mesh;
-  if (!open3d::io::ReadTriangleMesh(path, o3d_mesh)) {
-    throw InputError(FormatInputError(path, "", "a triangle mesh Open3D can read (PLY, OBJ, OFF)"));
-  }
-  if (o3d_mesh.triangles_.empty()) {
-    throw InputError(FormatInputError(path, "faces",
-                                      "triangles; found " +
-                                          std::to_string(o3d_mesh.vertices_.size()) +
-                                          " vertices and no triangle (a point cloud?)"));
-  }
-  RenderMesh mesh;
-  mesh.vertices = o3d_mesh.vertices_;
-  mesh.triangles = o3d_mesh.triangles_;
-  if (o3d_mesh.HasVertexColors()) mesh.vertex_colors = o3d_mesh.vertex_colors_;
-  const std::string problem = mesh.Validate();
-  if (!problem.empty()) throw InputError(FormatInputError(path, "", problem));
-  return mesh;
 }
 
 void WritePngAtomically(const std::string& path, const cv::Mat& image) {

@@ -10,7 +10,6 @@
 #include <open3d/geometry/Image.h>
 #include <open3d/geometry/RGBDImage.h>
 #include <open3d/geometry/TriangleMesh.h>
-#include <open3d/io/TriangleMeshIO.h>
 #include <open3d/pipelines/integration/ScalableTSDFVolume.h>
 #include <open3d/pipelines/integration/UniformTSDFVolume.h>
 #include <opencv2/imgproc.hpp>
@@ -330,32 +329,6 @@ TsdfVolume FuseDepthResources(const mapstore::VIMap& map,
   s.volume_units = volume.volume_units();
   s.memory_mb = volume.memory_mb();
   return volume;
-}
-
-void WriteMeshPly(const TriangleMesh& mesh, const std::string& path) {
-  // Open3D's writer refuses a mesh without vertices: say so, not "not writable".
-  if (mesh.vertices.empty()) throw InputError(path + ": expected a mesh to write, found no vertices");
-  open3d::geometry::TriangleMesh o3d;
-  o3d.vertices_ = mesh.vertices;
-  o3d.triangles_ = mesh.triangles;
-  o3d.vertex_colors_ = mesh.colors;
-  // Written beside the target and renamed into place: a reader never sees half a file.
-  const std::string partial = path + ".partial.ply";
-  const bool written = open3d::io::WriteTriangleMesh(partial, o3d, /*write_ascii=*/false,
-                                                      /*compressed=*/false,
-                                                      /*write_vertex_normals=*/false,
-                                                      /*write_vertex_colors=*/!mesh.colors.empty(),
-                                                      /*write_triangle_uvs=*/false);
-  std::error_code ec;
-  if (!written) {
-    std::filesystem::remove(partial, ec);
-    throw InputError(path + ": expected a writable file for the mesh (PLY)");
-  }
-  std::filesystem::rename(partial, path, ec);
-  if (ec) {
-    std::filesystem::remove(partial, ec);
-    throw InputError(path + ": expected a writable file for the mesh (PLY): " + ec.message());
-  }
 }
 
 }  // namespace vilma::mapping

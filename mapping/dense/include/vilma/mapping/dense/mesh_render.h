@@ -18,17 +18,10 @@
 #include <vector>
 
 #include "vilma/core/geometry.h"
+#include "vilma/mapping/dense/triangle_mesh.h"
 
 namespace vilma::mapping {
 
-struct RenderMesh {
-  std::vector<Eigen::Vector3d> vertices;       // [m]
-  std::vector<Eigen::Vector3i> triangles;      // vertex indices
-  std::vector<Eigen::Vector3d> vertex_colors;  // RGB in [0, 1]; empty, or one per vertex
-  // Empty if usable, else what is not: no triangle, an index out of range, a non-finite
-  // vertex, colours that do not match the vertices.
-  std::string Validate() const;
-};
 
 struct MeshRenderOptions {
   int width_px = 1024;
@@ -63,7 +56,7 @@ struct MeshRenderCamera {
 };
 
 // Camera for `mesh` (Validate()d) and `options`.
-MeshRenderCamera MakeMeshRenderCamera(const RenderMesh& mesh, const MeshRenderOptions& options);
+MeshRenderCamera MakeMeshRenderCamera(const TriangleMesh& mesh, const MeshRenderOptions& options);
 
 struct MeshRenderResult {
   cv::Mat image;  // CV_8UC3, BGR
@@ -75,15 +68,12 @@ struct MeshRenderResult {
 };
 
 // Renders `mesh`. Throws std::invalid_argument for invalid options or an unusable mesh.
-MeshRenderResult RenderMeshImage(const RenderMesh& mesh, const MeshRenderOptions& options);
+MeshRenderResult RenderMeshImage(const TriangleMesh& mesh, const MeshRenderOptions& options);
 
 // The triangles whose three vertices lie at or below z_m (a room's ceiling cut off so that its
 // inside shows from above); unused vertices are kept.
-RenderMesh ClipAboveZ(const RenderMesh& mesh, double z_m);
+TriangleMesh ClipAboveZ(const TriangleMesh& mesh, double z_m);
 
-// A PLY (or another format Open3D reads) triangle mesh with its vertex colours. Throws
-// InputError naming the file when it does not exist, cannot be read, or holds no triangle.
-RenderMesh ReadMeshFile(const std::string& path);
 
 // Writes `image` as PNG atomically (temporary file + rename). Throws InputError naming `path`.
 void WritePngAtomically(const std::string& path, const cv::Mat& image);

@@ -14,6 +14,7 @@
 
 #include "vilma/core/progress.h"
 #include "vilma/mapping/dense/depth_map.h"
+#include "vilma/mapping/dense/triangle_mesh.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping {
@@ -40,12 +41,6 @@ struct TsdfOptions {
   // wait, so on a loaded 2-core machine 2 threads took 41 s where 1 took 3 s (98 depth maps).
   int threads = 1;
   std::string Validate() const;
-};
-
-struct TriangleMesh {
-  std::vector<Eigen::Vector3d> vertices;   // [m], in G
-  std::vector<Eigen::Vector3i> triangles;  // vertex indices
-  std::vector<Eigen::Vector3d> colors;     // per vertex, [0, 1] (empty: none)
 };
 
 struct TsdfSummary {
@@ -94,9 +89,5 @@ TsdfVolume FuseDepthResources(const mapstore::VIMap& map,
                               const TsdfOptions& options, TsdfSummary* summary,
                               ProgressObserver* progress = nullptr);
 
-// Writes a binary PLY (Open3D's writer: vertices x y z, optional red green blue, faces) into a
-// temporary file renamed into place; throws InputError naming the file when it cannot be
-// written.
-void WriteMeshPly(const TriangleMesh& mesh, const std::string& path);
 
 }  // namespace vilma::mapping
