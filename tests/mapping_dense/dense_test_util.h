@@ -9,11 +9,25 @@
 #include <string>
 #include <vector>
 
+#include "vilma/core/error.h"
 #include "vilma/core/geometry.h"
 #include "vilma/mapping/dense/depth_map.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping::testing {
+
+// The message of the InputError `f` throws ("(no exception)" / "(another exception)" otherwise).
+template <typename F>
+std::string InputErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e.what();
+  } catch (...) {
+    return "(another exception)";
+  }
+  return "(no exception)";
+}
 
 // The plane n . p_G = d (n unit).
 struct Plane {

@@ -12,6 +12,7 @@
 
 using namespace vilma;
 using namespace vilma::mapping;
+using vilma::mapping::testing::InputErrorOf;
 using testing::Pinhole;
 using testing::Plane;
 using testing::RenderPlaneDepth;
@@ -27,19 +28,6 @@ DepthMap SmallDepthMap() {
   depth.q_C_D = Eigen::Quaterniond(0.9, 0.1, -0.2, 0.3).normalized();
   depth.depth_m = cv::Mat(12, 17, CV_32FC1, cv::Scalar(1.5f));
   return depth;
-}
-
-// The message of the InputError `f` throws ("" when it throws none or another type).
-template <typename F>
-std::string InputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  } catch (...) {
-    return "(another exception)";
-  }
-  return "(no exception)";
 }
 
 // Replaces the first `from` in `bytes` by `to`.

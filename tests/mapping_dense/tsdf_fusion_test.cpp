@@ -14,6 +14,7 @@
 
 using namespace vilma;
 using namespace vilma::mapping;
+using vilma::mapping::testing::InputErrorOf;
 using testing::Pinhole;
 using testing::Plane;
 namespace fs = std::filesystem;
@@ -73,18 +74,6 @@ fs::path TempDir(const std::string& name) {
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
-}
-
-template <typename F>
-std::string InputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  } catch (...) {
-    return "(another exception)";
-  }
-  return "(no exception)";
 }
 
 }  // namespace

@@ -14,21 +14,10 @@
 
 using namespace vilma;
 using namespace vilma::mapping;
+using vilma::mapping::testing::InputErrorOf;
 namespace fs = std::filesystem;
 
 namespace {
-
-template <typename F>
-std::string InputErrorOf(F&& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e.what();
-  } catch (...) {
-    return "(another exception)";
-  }
-  return "(no exception)";
-}
 
 // The raw TUM value (depth [m] * 5000) of pixel (u, v) of image i; 0 in a corner (no depth).
 uint16_t RawDepth(int i, int u, int v) {
