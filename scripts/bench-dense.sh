@@ -7,9 +7,11 @@
 #   gt-true     map from the ground-truth poses (every 5th frame), depth ray-cast in the world
 #               (attach_true_depth): the TSDF stage alone
 #   gt-stereo   the same map, SGBM depth (stereo_dense_reconstruction): stereo + TSDF
-#   gt-precise  the same, surface seen by fewer than 10 depth maps left out
+#   gt-hh       the same, tuned for accuracy: SGBM with 8 paths (--sgbm_mode hh), 7 px blocks,
+#               surface seen by fewer than 9 depth maps left out (--dense_mesh_min_weight 9)
 #   opt-stereo  the daemon's VIO map of room-easy, kfh; optvi (its own poses), SGBM depth,
 #               aligned to the ground truth by its vertices (posyaw)
+#   opt-hh      the same map with gt-hh's settings
 # Real data, no true surfaces: depth consistency of neighbouring keyframes, timings, a picture:
 #   euroc       ../shared/data/euroc_V1_01_keyframes, map from the ground-truth poses
 #   kitti       ../shared/data/kitti_slices/KITTI_sequence_1 (vilma dense-kitti, given poses)
@@ -27,11 +29,11 @@ datasets=${VILMA_DATASETS:-$cache/datasets}
 shared=${VILMA_SHARED_DATA_DIR:-$repo_dir/../shared/data}
 work=${BENCH_WORK:-$cache/dense-bench}
 bin=$build_dir/bin
-only="gt-true,gt-stereo,gt-precise,opt-stereo,euroc,kitti"
+only="gt-true,gt-stereo,gt-hh,opt-stereo,opt-hh,euroc,kitti"
 while [ $# -gt 0 ]; do
   case $1 in
     --only) only=$2; shift 2 ;;
-    -h | --help) sed -n '2,22p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,24p' "$0"; exit 0 ;;
     *) echo "bench-dense.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -44,6 +46,7 @@ VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datas
 room=$datasets/room-easy
 tsdf="create_tsdf_from_depth_resource --dense_tsdf_voxel_size_m 0.05 \
   --dense_tsdf_truncation_distance_m 0.15"
+accurate_depth="stereo_dense_reconstruction --sgbm_mode hh --sgbm_block_size 7"
 
 # console ROW MAP COMMANDS: runs the console on MAP, output in $work/ROW.out.
 console() {
@@ -64,8 +67,8 @@ add_row() { rows+=("| $1 | $2 | $3 | $4 | $5 | $6 | $7 | $8 |"); }
 mesh_row() {  # ROW DESCRIPTION: a row judged against the true surfaces
   local row=$1 json=$work/$1.json
   local acc_med acc_p90 comp
-  acc_med=$(python3 -c "import json; print('%.1f' % (100 * json.load(open('$json'))['accuracy_median_m']))")
-  acc_p90=$(python3 -c "import json; print('%.1f' % (100 * json.load(open('$json'))['accuracy_p90_m']))")
+  acc_med=$(python3 -c "import json; print('%.2f' % (100 * json.load(open('$json'))['accuracy_median_m']))")
+  acc_p90=$(python3 -c "import json; print('%.2f' % (100 * json.load(open('$json'))['accuracy_p90_m']))")
   comp=$(python3 -c "import json; print('%.1f' % (100 * json.load(open('$json'))['completeness']))")
   add_row "$2" "$acc_med / $acc_p90" "$comp" "$(depth_ms "$work/$row.out")" \
     "$(fuse_ms "$work/$row.out")" "$(tsdf_mib "$work/$row.out")" \
@@ -74,7 +77,7 @@ mesh_row() {  # ROW DESCRIPTION: a row judged against the true surfaces
 
 # The room map from the ground-truth poses (every 5th frame), with its images.
 gt_map=$work/room-gt5
-if wants gt-true || wants gt-stereo || wants gt-precise; then
+if wants gt-true || wants gt-stereo || wants gt-hh; then
   if stale "$gt_map/done" "$room/sim.yaml" "$bin/vilma"; then
     rm -rf "$gt_map"
     "$bin/vilma" map-from-poses "$room" --out "$gt_map" --every 5 > "$work/room-gt5.out" 2>&1
@@ -89,7 +92,7 @@ if wants gt-true; then
     eval_mesh $room --align none --json $work/gt-true.json"
   mesh_row gt-true "room, true poses, true depth (TSDF alone)"
 fi
-if wants gt-stereo || wants gt-precise; then
+if wants gt-stereo; then
   console gt-stereo "$gt_map" "stereo_dense_reconstruction; depth_consistency; $tsdf; \
     export_tsdf $work/room.ply; eval_mesh $room --align none --json $work/gt-stereo.json \
     --error_mesh_output_file $work/room-error.ply; \
@@ -97,12 +100,12 @@ if wants gt-stereo || wants gt-precise; then
       --clip_above_z_m 2.5; \
     render_mesh $work/room-error.ply $work/room-error.png --view custom --elevation_deg 60 \
       --clip_above_z_m 2.5"
-  wants gt-stereo && mesh_row gt-stereo "room, true poses, SGBM depth"
+  mesh_row gt-stereo "room, true poses, SGBM depth (defaults)"
 fi
-if wants gt-precise; then
-  console gt-precise "$gt_map" "stereo_dense_reconstruction; $tsdf --dense_mesh_min_weight 10; \
-    eval_mesh $room --align none --json $work/gt-precise.json"
-  mesh_row gt-precise "room, true poses, SGBM depth, mesh min weight 10"
+if wants gt-hh; then
+  console gt-hh "$gt_map" "$accurate_depth; depth_consistency; $tsdf --dense_mesh_min_weight 9; \
+    eval_mesh $room --align none --json $work/gt-hh.json"
+  mesh_row gt-hh "room, true poses, SGBM hh 7 px, mesh min weight 9"
 fi
 if wants opt-stereo; then
   vio=$(vio_map room-easy)
@@ -110,6 +113,12 @@ if wants opt-stereo; then
     stereo_dense_reconstruction; depth_consistency; $tsdf; \
     eval_mesh $room --json $work/opt-stereo.json"
   mesh_row opt-stereo "room, VIO map after kfh; optvi, SGBM depth (posyaw-aligned)"
+fi
+if wants opt-hh; then
+  vio=$(vio_map room-easy)
+  console opt-hh "$vio" "kfh; optvi; attach_images $room; $accurate_depth; depth_consistency; \
+    $tsdf --dense_mesh_min_weight 9; eval_mesh $room --json $work/opt-hh.json"
+  mesh_row opt-hh "room, VIO map after kfh; optvi, SGBM hh 7 px, mesh min weight 9"
 fi
 if wants euroc; then
   euroc=$shared/euroc_V1_01_keyframes
