@@ -248,7 +248,8 @@ EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
     }
     const bool known = name == "--gt" || name == "--est" || name == "--align" ||
                        name == "--segments" || name == "--max-dt" || name == "--json" ||
-                       name == "--plot" || name == "--within" || name == "--align-from";
+                       name == "--plot" || name == "--within" || name == "--align-from" ||
+                       name == "--association";
     if (!known && name.rfind("-", 0) != 0) {
       throw UsageError("unexpected argument '" + arg.word() + "' (files go after --gt and --est)");
     }
@@ -274,6 +275,10 @@ EvalCommandOptions ParseEvalArgs(const std::vector<std::string>& args) {
       o.eval.within_m = ParseWithin(value);
     } else if (name == "--max-dt") {
       o.eval.association.max_dt_s = ParseNumber("--max-dt", value);
+    } else if (name == "--association") {
+      if (!ParseAssociationRule(value, &o.eval.association.rule)) {
+        throw UsageError("--association: expected evo or unique, got '" + value + "'");
+      }
     } else if (name == "--align-from") {
       o.align_from_path = value;
     } else if (name == "--json") {
@@ -303,7 +308,9 @@ void PrintEvalHelp(std::ostream& out) {
          "Absolute (ATE) and relative (RPE) trajectory error of EST against GT.\n"
          "GT and EST: TUM text (t[s] x y z qx qy qz qw), EuRoC CSV (t[ns],p,q_wxyz[,v,bw,ba])\n"
          "or KITTI (12 numbers, 3x4 row-major, no time: associated by index); the format is\n"
-         "told from the content.\n"
+         "told from the content; quirks of other systems' files (header rows, commas or\n"
+         "spaces, stamps in ns or s, CRLF, ...) are accepted and reported on stderr, and a\n"
+         "repeated time stamp keeps the first pose (a warning names the lines).\n"
          "\n"
          "options:\n"
          "  --gt FILE             ground-truth trajectory (required)\n"
@@ -323,6 +330,10 @@ void PrintEvalHelp(std::ostream& out) {
          "  --within D1,D2,...    count the matched poses whose aligned position error is\n"
          "                        <= D [m] (e.g. 0.5 for localization recall), per D\n"
          "  --max-dt S            largest time difference [s] of a matched pair (default 0.01)\n"
+         "  --association RULE    evo (default: each pose of the shorter file takes the\n"
+         "                        nearest stamp of the other within --max-dt, as evo_ape) or\n"
+         "                        unique (one-to-one, nearest pairs first, as TUM's\n"
+         "                        associate.py)\n"
          "  --json FILE           also write the results as JSON (docs/evaluation.md)\n"
          "  --plot FILE.png       top-down trajectories + error over time (python3 +\n"
          "                        matplotlib; scripts from $VILMA_SCRIPTS_DIR, interpreter\n"
@@ -345,7 +356,8 @@ void WriteEvalReport(std::ostream& out, const EvalCommandOptions& options, const
   if (result.association.by_index) {
     out << " (by index: no time stamps)\n";
   } else {
-    out << " (max dt " << options.eval.association.max_dt_s << " s)\n";
+    out << " (max dt " << options.eval.association.max_dt_s << " s, "
+        << AssociationRuleName(options.eval.association.rule) << " rule)\n";
   }
   out << "alignment:     " << AlignmentTypeName(a.type);
   if (a.type == AlignmentType::kFixed) out << " (from " << options.align_from_path << ")";
@@ -404,7 +416,9 @@ void WriteEvalJson(std::ostream& out, const EvalCommandOptions& options, const T
   WriteTrajectoryJson(out, options.est_path, est);
   out << ",\n  \"association\": {\"method\": "
       << JsonString(result.association.by_index ? "index" : "time")
-      << ", \"max_dt_s\": " << JsonNumber(options.eval.association.max_dt_s) << "},\n";
+      << ", \"max_dt_s\": " << JsonNumber(options.eval.association.max_dt_s)
+      << ", \"rule\": " << JsonString(AssociationRuleName(options.eval.association.rule))
+      << "},\n";
   out << "  \"matched_poses\": " << result.association.size() << ",\n";
   out << "  \"alignment\": " << JsonString(AlignmentTypeName(a.type)) << ",\n";
   out << "  \"scale\": " << JsonNumber(a.scale) << ",\n";
@@ -478,8 +492,17 @@ int RunEvalCommand(const std::vector<std::string>& args, std::ostream& out, std:
     if (!options.align_from_path.empty()) {
       options.eval.fixed_alignment = ReadAlignmentJson(options.align_from_path);
     }
-    const Trajectory gt = ReadTrajectoryFile(options.gt_path);
-    const Trajectory est = ReadTrajectoryFile(options.est_path);
+    TrajectoryReadReport gt_read, est_read;
+    const Trajectory gt = ReadTrajectoryFile(options.gt_path, &gt_read);
+    const Trajectory est = ReadTrajectoryFile(options.est_path, &est_read);
+    // What was read and every quirk met, once per file (after both read: an error stays the
+    // only stderr output).
+    for (const TrajectoryReadReport* r : {&gt_read, &est_read}) {
+      err << "vilma eval: " << TrajectoryReadSummary(*r) << "\n";
+      for (const std::string& w : TrajectoryReadWarnings(*r)) {
+        err << "vilma eval: warning: " << w << "\n";
+      }
+    }
     if ((!gt.has_timestamps || !est.has_timestamps) && gt.size() != est.size()) {
       throw InputError(FormatInputError(
           options.est_path, "",

@@ -27,6 +27,55 @@ std::string AssociationOptions::Validate() const {
   return "";
 }
 
+const char* AssociationRuleName(AssociationRule rule) {
+  switch (rule) {
+    case AssociationRule::kEvo:
+      return "evo";
+    case AssociationRule::kUnique:
+      return "unique";
+  }
+  return "unknown";
+}
+
+bool ParseAssociationRule(const std::string& name, AssociationRule* rule) {
+  for (AssociationRule r : {AssociationRule::kEvo, AssociationRule::kUnique}) {
+    if (name == AssociationRuleName(r)) {
+      *rule = r;
+      return true;
+    }
+  }
+  return false;
+}
+
+namespace {
+
+// evo's sync.associate_trajectories (evo/core/sync.py, matching_time_indices): for each stamp
+// of the shorter trajectory, argmin |t_long - t_short| over the longer one, kept if <= max_dt.
+// Both stamp vectors are strictly increasing, so the nearest is one of the two neighbours of
+// the lower bound; on a tie the earlier one wins (argmin returns the first minimum).
+Association AssociateEvo(const Trajectory& gt, const Trajectory& est, int64_t max_dt_ns) {
+  Association result;
+  const bool est_longer = est.size() > gt.size();
+  const std::vector<int64_t>& walked = est_longer ? gt.t_ns : est.t_ns;
+  const std::vector<int64_t>& searched = est_longer ? est.t_ns : gt.t_ns;
+  for (std::size_t s = 0; s < walked.size(); ++s) {
+    const int64_t t = walked[s];
+    const auto it = std::lower_bound(searched.begin(), searched.end(), t);
+    std::size_t best = searched.size();
+    if (it != searched.end()) best = static_cast<std::size_t>(it - searched.begin());
+    if (it != searched.begin()) {
+      const std::size_t before = static_cast<std::size_t>(it - searched.begin()) - 1;
+      if (best == searched.size() || t - searched[before] <= searched[best] - t) best = before;
+    }
+    if (best == searched.size() || std::abs(searched[best] - t) > max_dt_ns) continue;
+    result.gt_index.push_back(est_longer ? s : best);
+    result.est_index.push_back(est_longer ? best : s);
+  }
+  return result;
+}
+
+}  // namespace
+
 Association AssociateTrajectories(const Trajectory& gt, const Trajectory& est,
                                   const AssociationOptions& options) {
   Association result;
@@ -40,6 +89,7 @@ Association AssociateTrajectories(const Trajectory& gt, const Trajectory& est,
     return result;
   }
   const int64_t max_dt_ns = SecondsToNs(options.max_dt_s);
+  if (options.rule == AssociationRule::kEvo) return AssociateEvo(gt, est, max_dt_ns);
   // Candidates (|dt|, est, gt): the gt stamps within the window of each estimate stamp, found
   // by binary search (both stamp vectors are strictly increasing).
   std::vector<std::tuple<int64_t, std::size_t, std::size_t>> candidates;

@@ -161,6 +161,45 @@ TEST_CASE("eval argument parsing", "[eval]") {
                     "association.max_dt_s: expected a finite time difference >= 0 [s]");
 }
 
+TEST_CASE("eval --association and the read report on stderr", "[eval]") {
+  CHECK(ParseEvalArgs({"--gt", "a", "--est", "b"}).eval.association.rule ==
+        AssociationRule::kEvo);
+  CHECK(ParseEvalArgs({"--gt", "a", "--est", "b", "--association", "unique"})
+            .eval.association.rule == AssociationRule::kUnique);
+  CHECK_THROWS_WITH(ParseEvalArgs({"--gt", "a", "--est", "b", "--association", "tum"}),
+                    "--association: expected evo or unique, got 'tum'");
+
+  // An ORB-SLAM-like estimate: nanosecond stamps in a TUM file, one stamp repeated.
+  Files f;
+  WriteInputs(f);
+  const std::string orb = f.dir + "/orb.txt";
+  {
+    const Trajectory gt = MakeGroundTruth();
+    std::ofstream out(orb);
+    for (std::size_t i = 0; i < 100; ++i) {
+      const Eigen::Vector3d& p = gt.T_W_B[i].translation();
+      const Eigen::Quaterniond& q = gt.T_W_B[i].rotation();
+      const int repeats = i == 10 ? 2 : 1;
+      for (int k = 0; k < repeats; ++k) {
+        out << gt.t_ns[i] << " " << p.x() << " " << p.y() << " " << p.z() << " " << q.x() << " "
+            << q.y() << " " << q.z() << " " << q.w() << "\n";
+      }
+    }
+  }
+  const Result r = Eval({"--gt", f.gt, "--est", orb, "--align", "none", "--segments", "1"});
+  INFO(r.err);
+  REQUIRE(r.code == kExitOk);
+  CHECK(r.out.find("matched poses: 100 (max dt 0.01 s, evo rule)") != std::string::npos);
+  CHECK(r.out.find("ATE translation [m]:  rmse 0.0000") != std::string::npos);
+  CHECK(r.err.find("vilma eval: read " + f.gt + ": 1200 poses, format EuRoC") == 0);
+  CHECK(r.err.find("vilma eval: read " + orb +
+                   ": 100 poses, format TUM (t x y z qx qy qz qw), stamps in nanoseconds (> "
+                   "1e12), space-separated, 1 repeated stamp dropped\n") != std::string::npos);
+  CHECK(r.err.find("vilma eval: warning: " + orb + ": line 12: repeated time stamp " +
+                   std::to_string(MakeGroundTruth().t_ns[10]) + " (first at line 11): dropped\n") !=
+        std::string::npos);
+}
+
 TEST_CASE("eval exit codes and messages name the file", "[eval]") {
   Files f;
   WriteInputs(f);

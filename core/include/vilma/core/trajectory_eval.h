@@ -3,8 +3,9 @@
 // Odometry", IROS 2018) and evo (Grupp 2017). The conventions and where they differ from those
 // tools are written down in docs/evaluation.md.
 //
-//   1. Associate: pair each estimate pose with a ground-truth pose (time stamps within
-//      max_dt, nearest first, each pose used at most once), or by index without stamps.
+//   1. Associate: evo's rule (sync.associate_trajectories): each pose of the shorter
+//      trajectory takes the nearest stamp of the longer one within max_dt; or TUM's one-to-one
+//      rule (AssociationRule::kUnique); or by index without stamps.
 //   2. Align: find S_G_E (rotation R, translation t, scale s) mapping the estimate's world E
 //      onto the ground truth's world G from ALL matched positions: p_G = s R p_E + t; or, for
 //      kFirst, the yaw + translation that puts the FIRST matched pose onto its ground truth;
@@ -29,15 +30,33 @@ namespace vilma {
 
 // ---- association ----
 
+enum class AssociationRule {
+  // evo's sync.associate_trajectories: the SHORTER trajectory (the estimate when both are
+  // equally long) is walked; each of its poses takes the nearest stamp of the other (ties: the
+  // earlier) when |dt| <= max_dt. A pose of the longer one may be matched more than once.
+  kEvo,
+  // TUM's associate.py: all pairs within max_dt, accepted in increasing |dt| while neither
+  // pose is used yet: one-to-one (vilma's rule before issue 17).
+  kUnique,
+};
+// "evo", "unique".
+const char* AssociationRuleName(AssociationRule rule);
+// Parses the names above; false for anything else.
+bool ParseAssociationRule(const std::string& name, AssociationRule* rule);
+
 struct AssociationOptions {
   // Largest |t_gt - t_est| [s] of a matched pair: 10 ms, as evo's default --t_max_diff 0.01 and
   // TUM's associate.py 0.02 (here tighter, ground truth usually comes at >= 100 Hz).
   double max_dt_s = 0.01;
+  // Which pairs are made (docs/evaluation.md, "1. Association"); evo's, so that ATE equals
+  // evo_ape's on the same files.
+  AssociationRule rule = AssociationRule::kEvo;
   // Empty when valid, else what is wrong.
   std::string Validate() const;
 };
 
-// Matched pairs, ordered by estimate time: gt.T_W_B[gt_index[k]] <-> est.T_W_B[est_index[k]].
+// Matched pairs, ordered by time (both index lists non-decreasing; strictly increasing with
+// kUnique): gt.T_W_B[gt_index[k]] <-> est.T_W_B[est_index[k]].
 struct Association {
   std::vector<std::size_t> gt_index;
   std::vector<std::size_t> est_index;
@@ -47,10 +66,13 @@ struct Association {
   std::size_t size() const { return gt_index.size(); }
 };
 
-// Time association as TUM's associate.py: all pairs with |t_gt - t_est| <= max_dt are
-// candidates; they are accepted in increasing |dt| (ties: earlier estimate, then earlier gt) when
-// neither pose is used yet. So each pose is used at most once and every estimate gets its
-// nearest free ground-truth pose. O((n + m) log + candidates).
+// Time association by options.rule. kEvo: walk the shorter trajectory (est when sizes are
+// equal), pair each pose with the nearest stamp of the other (ties: the earlier stamp, as
+// numpy's argmin) if |dt| <= max_dt; O(n log m). Stamps are compared as exact integer ns (evo
+// compares doubles in seconds: only a pair exactly max_dt apart may differ). kUnique (TUM's
+// associate.py): all pairs with |t_gt - t_est| <= max_dt are candidates, accepted in increasing
+// |dt| (ties: earlier estimate, then earlier gt) when neither pose is used yet; O((n + m) log +
+// candidates).
 Association AssociateTrajectories(const Trajectory& gt, const Trajectory& est,
                                   const AssociationOptions& options);
 
