@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <iomanip>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
@@ -139,6 +140,16 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
   }
 
   try {
+    // Outputs whose folder does not exist fail now, not after minutes of computation.
+    for (const std::string& path : {mesh_path, render_path}) {
+      if (path.empty()) continue;
+      const std::filesystem::path parent = std::filesystem::absolute(path).parent_path();
+      std::error_code ec;
+      if (!std::filesystem::is_directory(parent, ec)) {
+        throw InputError(path + ": expected a file in an existing folder (" + parent.string() +
+                         " is not one)");
+      }
+    }
     const localizer::KittiSequence sequence = localizer::LoadKittiSequence(directory);
     // Rectified already: a pinhole pair with the right camera at +B along x.
     const Transformation T_L_R(Eigen::Quaterniond::Identity(), Eigen::Vector3d(sequence.baseline_m, 0, 0));
@@ -187,7 +198,22 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
     }
     const mapping::TriangleMesh mesh = volume.ExtractMesh();
     if (mesh.triangles.empty()) throw InputError(directory + ": the fused depth holds no surface");
+    // The picture is drawn before anything is written: a mesh it cannot draw leaves no file.
+    cv::Mat picture;
+    int64_t triangles_drawn = 0;
+    if (!render_path.empty()) {
+      // KITTI's world is the first left camera (x right, y down, z ahead); the picture's views
+      // take z as up, so the mesh is drawn turned by (x, y, z) -> (x, z, -y).
+      mapping::TriangleMesh drawable{{}, mesh.triangles, {}};
+      for (const Eigen::Vector3d& p : mesh.vertices) drawable.vertices.emplace_back(p.x(), p.z(), -p.y());
+      mapping::MeshRenderOptions view;
+      view.view = "top";
+      const mapping::MeshRenderResult result = mapping::RenderMeshImage(drawable, view);
+      picture = result.image;
+      triangles_drawn = result.triangles_drawn;
+    }
     mapping::WriteMeshPly(mesh, mesh_path);
+    if (!picture.empty()) mapping::WritePngAtomically(render_path, picture);
 
     out << "frames                 " << depths.size() << " of " << sequence.size() << "\n"
         << "depth per frame        " << Fixed(Median(depth_ms), 1) << " ms median (SGBM, "
@@ -200,16 +226,8 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
         << Fixed(volume.memory_mb(), 1) << " MiB\n"
         << "mesh                   " << mesh.vertices.size() << " vertices, " << mesh.triangles.size()
         << " triangles -> " << mesh_path << "\n";
-    if (!render_path.empty()) {
-      // KITTI's world is the first left camera (x right, y down, z ahead); the picture's views
-      // take z as up, so the mesh is drawn turned by (x, y, z) -> (x, z, -y).
-      mapping::TriangleMesh drawable{{}, mesh.triangles, {}};
-      for (const Eigen::Vector3d& p : mesh.vertices) drawable.vertices.emplace_back(p.x(), p.z(), -p.y());
-      mapping::MeshRenderOptions view;
-      view.view = "top";
-      const mapping::MeshRenderResult picture = mapping::RenderMeshImage(drawable, view);
-      mapping::WritePngAtomically(render_path, picture.image);
-      out << "picture                " << render_path << " (" << picture.triangles_drawn
+    if (!picture.empty()) {
+      out << "picture                " << render_path << " (" << triangles_drawn
           << " triangles drawn)\n";
     }
     return kExitOk;

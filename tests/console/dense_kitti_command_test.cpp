@@ -6,6 +6,7 @@
 #include <omp.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <filesystem>
@@ -207,12 +208,21 @@ TEST_CASE("vilma dense-kitti: an unwritable --out leaves no file", "[dense_kitti
   const std::string mesh = (dir / "blocker" / "mesh.ply").string();
   // Every 10th frame is enough for a surface seen twice. --max-depth 80: beyond the 65.5 m of
   // 16-bit millimetres (stored depth resources), accepted (the depth maps stay in memory).
-  const Result r = Run({kitti.string(), "--out", mesh, "--every", "10", "--max-depth", "80"});
+  // A folder that does not exist is refused before any computation.
+  const Result early = Run({kitti.string(), "--out", mesh, "--every", "10"});
+  CHECK(early.code == kExitInputError);
+  CHECK_THAT(early.err, Contains("vilma dense-kitti: " + mesh + ": expected a file in an existing folder"));
+  // A target the writer cannot replace (a folder) fails at the write, after the fusion.
+  fs::create_directories(dir / "mesh.ply");
+  const std::string folder_target = (dir / "mesh.ply").string();
+  const Result r = Run({kitti.string(), "--out", folder_target, "--every", "10", "--max-depth", "80"});
   CHECK(r.code == kExitInputError);
-  CHECK_THAT(r.err, Contains("vilma dense-kitti: " + mesh + ": expected a writable file"));
+  CHECK_THAT(r.err, Contains("vilma dense-kitti: " + folder_target + ": expected a writable file"));
   std::vector<fs::path> left;
   for (const fs::directory_entry& e : fs::directory_iterator(dir)) left.push_back(e.path());
-  CHECK(left == std::vector<fs::path>{dir / "blocker"});
+  std::sort(left.begin(), left.end());
+  CHECK(left == std::vector<fs::path>{dir / "blocker", dir / "mesh.ply"});
+  CHECK(fs::is_empty(dir / "mesh.ply"));
   CHECK(ReadBytes(dir / "blocker") == "a file, not a folder");
 }
 
