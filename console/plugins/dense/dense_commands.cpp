@@ -45,7 +45,7 @@ void RegisterStereo(CommandRegistry* registry) {
                    "StereoSGBM), stored as depth resources")
           .Access(MapAccess::kModify)
           .Flag("mission", &O::mission,
-                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                kMissionListHelp,
                 {"map_mission"})
           .FlagAt("sgbm_num_disparities", [](O& o) -> int& { return o.sgbm.num_disparities; },
                   "disparity search range [px], a multiple of 16 (depths down to f*B/range)")
@@ -107,7 +107,7 @@ void RegisterStereo(CommandRegistry* registry) {
           .Flag("dense_depth_unit_m", &TB::depth_unit_m, "quantization of the stored depth [m]")
           .Flag("overwrite", &TB::overwrite, "replace depth maps the frames already have")
           .Flag("mission", &T::mission,
-                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                kMissionListHelp,
                 {"map_mission"})
           .Run([](CommandContext& c, const T& o) {
             const mapping::TumDepthImportSummary summary = mapping::ImportTumDepth(
@@ -148,7 +148,7 @@ void RegisterTsdf(CommandRegistry* registry) {
                   [](O& o) -> double& { return o.filter.relative_tolerance; },
                   "a view confirms a depth within this share of it")
           .Flag("mission", &O::mission,
-                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                kMissionListHelp,
                 {"map_mission"})
           .Run([](CommandContext& c, const O& o) {
             mapping::TsdfSummary summary;

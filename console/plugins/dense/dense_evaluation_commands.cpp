@@ -136,7 +136,7 @@ void Register(CommandRegistry* registry) {
           .Flag("max_depth_m", &mapping::TrueDepthOptions::max_depth_m,
                 "farther surfaces give no depth [m]")
           .Flag("mission", &T::mission,
-                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                kMissionListHelp,
                 {"map_mission"})
           .Run([](CommandContext& c, const T& o) {
             sim::World world;
@@ -160,7 +160,7 @@ void Register(CommandRegistry* registry) {
           .Flag("pixel_stride", &mapping::DepthConsistencyOptions::pixel_stride,
                 "every n-th pixel in u and v is compared")
           .Flag("mission", &D::mission,
-                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                kMissionListHelp,
                 {"map_mission"})
           .Run([](CommandContext& c, const D& o) {
             const mapping::DepthConsistency result = mapping::MeasureDepthConsistency(

@@ -15,7 +15,7 @@ namespace vilma::console {
 namespace {
 
 constexpr const char* kMissionHelp =
-    "missions (ids, unique id prefixes or names, comma separated; default: all)";
+    kMissionListHelp;
 
 // Options of a data export command: the library's options plus the mission selector, resolved
 // against the selected map when the command runs.

@@ -49,7 +49,7 @@ void Register(CommandRegistry* registry) {
           .FlagAt("show_loop_closures", [](P& o) -> bool& { return o.plot.show_loop_closures; },
                   "draw loop-closure edges")
           .FlagAt("mission", [](P& o) -> std::string& { return o.plot.mission; },
-                  "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                  kMissionListHelp,
                   {"map_mission"})
           .FlagAt("title", [](P& o) -> std::string& { return o.plot.title; },
                   "title of the picture (default: VI-map)")
@@ -78,7 +78,7 @@ void Register(CommandRegistry* registry) {
           .FlagAt("max_landmarks", [](H& o) -> int& { return o.viewer.max_landmarks; },
                   "landmarks embedded at most (every k-th in map order above)")
           .FlagAt("mission", [](H& o) -> std::string& { return o.viewer.mission; },
-                  "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                  kMissionListHelp,
                   {"map_mission"})
           .FlagAt("title", [](H& o) -> std::string& { return o.viewer.title; },
                   "page title (default: VI-map)")

@@ -26,7 +26,7 @@ void Register(CommandRegistry* registry) {
                     {"pmvs_reconstruction_folder"})
           .Positional("out")
           .Flag("mission", &O::mission,
-                "missions (ids, unique id prefixes or names, comma separated; default: all)",
+                kMissionListHelp,
                 {"map_mission"})
           .Flag("landmarks", &L::landmarks,
                 "landmark qualities that become bundle.rd.out points: good, unknown, bad (comma "

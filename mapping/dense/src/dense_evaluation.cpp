@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
+#include <map>
 #include <sstream>
 
 #include "vilma/core/error.h"
@@ -61,6 +62,11 @@ std::string DepthConsistency::BriefReport() const {
 
 namespace {
 
+struct PosedDepthMap {
+  DepthMap depth;
+  Eigen::Matrix4d T_G_D = Eigen::Matrix4d::Identity();
+};
+
 // Appends |depth predicted from a - depth measured in b| (and relative) for a's points.
 void AccumulateDifferences(const PosedDepth& a, const PosedDepth& b, int stride,
                            std::vector<double>* abs_diff, std::vector<double>* rel_diff) {
@@ -114,6 +120,14 @@ DepthConsistency MeasureDepthConsistency(const mapstore::VIMap& map,
   // Pair by pair, so that only two depth maps are decoded at a time.
   int pairs = 0;
   std::vector<double> abs_diff, rel_diff;
+  // The second map of a pair is the first of the next one: decoded once, kept per camera.
+  std::map<int, std::pair<mapstore::VertexId, PosedDepthMap>> previous;
+  auto load = [&map](const mapstore::VertexId& vertex, int camera) {
+    PosedDepthMap d;
+    d.depth = LoadDepthMap(map, vertex, camera);
+    d.T_G_D = DepthViewPose(map, vertex, camera, d.depth);
+    return d;
+  };
   for (const mapstore::MissionId& mid : missions.empty() ? map.mission_ids() : missions) {
     const std::vector<mapstore::VertexId>& vertices = map.vertex_ids(mid);
     for (std::size_t i = 0; i + 1 < vertices.size(); ++i) {
@@ -121,11 +135,14 @@ DepthConsistency MeasureDepthConsistency(const mapstore::VIMap& map,
       const mapstore::Vertex& b = map.vertex(vertices[i + 1]);
       for (int c = 0; c < static_cast<int>(std::min(a.frames.size(), b.frames.size())); ++c) {
         if (!a.frames[c].depth_resource_id.IsValid() || !b.frames[c].depth_resource_id.IsValid()) continue;
-        const DepthMap da = LoadDepthMap(map, a.id, c);
-        const DepthMap db = LoadDepthMap(map, b.id, c);
-        AccumulateDifferences({&da, DepthViewPose(map, a.id, c, da)},
-                              {&db, DepthViewPose(map, b.id, c, db)}, options.pixel_stride,
+        auto it = previous.find(c);
+        const PosedDepthMap da = it != previous.end() && it->second.first == a.id
+                                     ? std::move(it->second.second)
+                                     : load(a.id, c);
+        PosedDepthMap db = load(b.id, c);
+        AccumulateDifferences({&da.depth, da.T_G_D}, {&db.depth, db.T_G_D}, options.pixel_stride,
                               &abs_diff, &rel_diff);
+        previous[c] = {b.id, std::move(db)};
         ++pairs;
       }
     }

@@ -62,6 +62,10 @@ class CommandError : public std::runtime_error {
 // Thrown by the `quit` command to end the session (not an error).
 class QuitRequested : public std::exception {};
 
+// Help of the usual --mission / --map_mission flag (mapping::ResolveMissions reads its value).
+inline constexpr const char* kMissionListHelp =
+    "missions (ids, unique id prefixes or names, comma separated; default: all)";
+
 struct FlagSpec {
   std::string name;                  // without "--"
   std::vector<std::string> aliases;  // maplab's names for the same flag
