@@ -246,6 +246,20 @@ std::vector<StereoMatch> MatchStereo(const KeyframeFeatures& left, const Keyfram
 mapstore::VIMap BuildKittiEvenFrameMap(const KittiSequence& seq,
                                        const KittiLocalizationOptions& options,
                                        KittiLocalizationReport* report) {
+  std::vector<int> even;
+  for (std::size_t k = 0; k < seq.size(); k += 2) even.push_back(static_cast<int>(k));
+  return BuildKittiFrameMap(seq, options, even, report);
+}
+
+mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocalizationOptions& options,
+                                   const std::vector<int>& map_frames,
+                                   KittiLocalizationReport* report) {
+  for (int k : map_frames) {
+    if (k < 0 || static_cast<std::size_t>(k) >= seq.size()) {
+      throw InputError(FormatInputError("KITTI map frames", std::to_string(k),
+                                        "a frame index below " + std::to_string(seq.size())));
+    }
+  }
   const std::string error = options.Validate();
   if (!error.empty()) throw InputError(FormatInputError("KittiLocalizationOptions", "", error));
   const FeatureExtractor extractor(options.features);
@@ -269,7 +283,8 @@ mapstore::VIMap BuildKittiEvenFrameMap(const KittiSequence& seq,
   std::vector<Tracked> previous;
   KeyframeFeatures previous_left;  // owns the descriptors `previous` points into
   int frames = 0, landmarks = 0, merged = 0;
-  for (std::size_t k = 0; k < seq.size(); k += 2) {
+  for (const int frame : map_frames) {
+    const std::size_t k = static_cast<std::size_t>(frame);
     const KeyframeFeatures left = extractor.Extract(LoadGray(seq.left_images[k]));
     const KeyframeFeatures right = extractor.Extract(LoadGray(seq.right_images[k]));
     const std::vector<StereoMatch> stereo =

@@ -125,6 +125,13 @@ mapstore::VIMap BuildKittiEvenFrameMap(const KittiSequence& sequence,
                                        const KittiLocalizationOptions& options,
                                        KittiLocalizationReport* report = nullptr);
 
+// The same from the given frames (in this order; each merges with the frame before it in the
+// list): the acceptance benchmark's maps of other parts of the slice (kitti_scenarios.h).
+mapstore::VIMap BuildKittiFrameMap(const KittiSequence& sequence,
+                                   const KittiLocalizationOptions& options,
+                                   const std::vector<int>& map_frames,
+                                   KittiLocalizationReport* report = nullptr);
+
 // The whole check. Throws InputError for unreadable inputs or invalid options.
 KittiLocalizationReport EvaluateKittiLocalization(const KittiSequence& sequence,
                                                   const KittiLocalizationOptions& options);

@@ -1,0 +1,215 @@
+#include "vilma/localizer/acceptance_eval.h"
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <iomanip>
+#include <numeric>
+#include <random>
+#include <sstream>
+#include <unordered_set>
+
+#include "vilma/core/error.h"
+
+namespace vilma::localizer {
+namespace {
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n % 2 == 1 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+double LargestSigma(const Eigen::Matrix3d& covariance) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(covariance);
+  return std::sqrt(std::max(0.0, es.eigenvalues().maxCoeff()));
+}
+
+}  // namespace
+
+bool QueryPerturbation::IsIdentity() const {
+  return box_min_x <= 0.0 && box_min_y <= 0.0 && box_max_x >= 1.0 && box_max_y >= 1.0 &&
+         max_keypoints == 0 && swap_fraction == 0.0;
+}
+
+std::string QueryPerturbation::Validate() const {
+  for (double v : {box_min_x, box_min_y, box_max_x, box_max_y}) {
+    if (!(std::isfinite(v) && v >= 0.0 && v <= 1.0)) return "box: expected fractions in [0, 1]";
+  }
+  if (!(box_min_x < box_max_x && box_min_y < box_max_y)) return "box: expected min < max";
+  if (max_keypoints < 0) return "max_keypoints: expected >= 0 (0: all)";
+  if (!(std::isfinite(swap_fraction) && swap_fraction >= 0.0 && swap_fraction <= 1.0)) {
+    return "swap_fraction: expected in [0, 1]";
+  }
+  return "";
+}
+
+void PerturbQuery(const QueryPerturbation& p, const Camera& camera,
+                  std::vector<Eigen::Vector2d>* keypoints, std::vector<uint8_t>* descriptors,
+                  int descriptor_bytes) {
+  const std::string error = p.Validate();
+  if (!error.empty()) throw InputError(FormatInputError("QueryPerturbation", "", error));
+  const std::size_t bytes = static_cast<std::size_t>(descriptor_bytes);
+  const double x0 = p.box_min_x * camera.width(), x1 = p.box_max_x * camera.width();
+  const double y0 = p.box_min_y * camera.height(), y1 = p.box_max_y * camera.height();
+  std::vector<Eigen::Vector2d> kept;
+  std::vector<uint8_t> kept_descriptors;
+  for (std::size_t i = 0; i < keypoints->size(); ++i) {
+    const Eigen::Vector2d& uv = (*keypoints)[i];
+    if (uv.x() < x0 || uv.x() > x1 || uv.y() < y0 || uv.y() > y1) continue;
+    if (p.max_keypoints > 0 && static_cast<int>(kept.size()) >= p.max_keypoints) break;
+    kept.push_back(uv);
+    kept_descriptors.insert(kept_descriptors.end(), descriptors->begin() + i * bytes,
+                            descriptors->begin() + (i + 1) * bytes);
+  }
+  const std::size_t n = kept.size();
+  const std::size_t swapped = static_cast<std::size_t>(std::floor(p.swap_fraction * n + 0.5));
+  if (swapped >= 2) {
+    // A random subset, shifted cyclically: every chosen keypoint gets the descriptor of the
+    // next chosen one, never its own.
+    std::vector<std::size_t> order(n);
+    std::iota(order.begin(), order.end(), std::size_t{0});
+    std::mt19937_64 rng(p.seed);
+    std::shuffle(order.begin(), order.end(), rng);
+    order.resize(swapped);
+    const std::vector<uint8_t> original = kept_descriptors;
+    for (std::size_t k = 0; k < swapped; ++k) {
+      const std::size_t to = order[k], from = order[(k + 1) % swapped];
+      std::copy(original.begin() + from * bytes, original.begin() + (from + 1) * bytes,
+                kept_descriptors.begin() + to * bytes);
+    }
+  }
+  *keypoints = std::move(kept);
+  *descriptors = std::move(kept_descriptors);
+}
+
+AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera& camera,
+                                        const Transformation& T_I_C,
+                                        const std::vector<Eigen::Vector2d>& keypoints,
+                                        const std::vector<uint8_t>& descriptors,
+                                        const Transformation& T_G_I_gt,
+                                        const AcceptanceGates& gates) {
+  AcceptanceQuery q;
+  q.keypoints = static_cast<int>(keypoints.size());
+  const LocalizationResult r = localizer.Localize(
+      camera, T_I_C, keypoints, keypoints.empty() ? nullptr : descriptors.data());
+  q.status = r.status;
+  q.matches = static_cast<int>(r.matches.size());
+  q.inliers = static_cast<int>(r.inliers.size());
+  // Oracle on the RANSAC input: distinct keypoints whose landmark reprojects near them under
+  // the ground truth.
+  const Transformation T_C_G = (T_G_I_gt * T_I_C).inverse();
+  std::unordered_set<int> agreeing;
+  for (const Match2D3D& m : r.matches) {
+    const Eigen::Vector3d p_C = T_C_G * localizer.map().p_G[m.landmark];
+    Eigen::Vector2d uv;
+    if (p_C.z() <= 1e-6 || camera.Project(p_C, &uv) != Camera::ProjectionResult::kValid) continue;
+    if ((uv - keypoints[static_cast<std::size_t>(m.keypoint)]).norm() <= gates.oracle_threshold_px) {
+      agreeing.insert(m.keypoint);
+    }
+  }
+  q.oracle_matches = static_cast<int>(agreeing.size());
+  q.possible = q.oracle_matches >= gates.oracle_min_matches;
+  q.accepted = r.status == LocalizationStatus::kOk;
+  if (q.accepted) {
+    q.position_error_m = (r.T_G_I.translation() - T_G_I_gt.translation()).norm();
+    q.rotation_error_deg = AngleBetween(r.T_G_I.rotation(), T_G_I_gt.rotation()) * 180.0 / M_PI;
+    q.wrong = !(q.position_error_m <= gates.max_position_error_m &&
+                q.rotation_error_deg <= gates.max_rotation_error_deg);
+    q.position_sigma_m = LargestSigma(r.covariance_I.topLeftCorner<3, 3>());
+    q.rotation_sigma_deg = LargestSigma(r.covariance_I.bottomRightCorner<3, 3>()) * 180.0 / M_PI;
+  }
+  return q;
+}
+
+AcceptanceSummary SummarizeAcceptance(const std::string& name,
+                                      const std::vector<AcceptanceQuery>& queries) {
+  AcceptanceSummary s;
+  s.name = name;
+  std::vector<double> pos, rot;
+  for (const AcceptanceQuery& q : queries) {
+    ++s.queries;
+    ++s.stats.queries;
+    ++s.stats.status_counts[static_cast<int>(q.status)];
+    s.possible += q.possible ? 1 : 0;
+    if (!q.accepted) continue;
+    ++s.accepted;
+    pos.push_back(q.position_error_m);
+    rot.push_back(q.rotation_error_deg);
+    if (q.wrong) {
+      ++s.accepted_wrong;
+      s.max_wrong_position_error_m = std::max(s.max_wrong_position_error_m, q.position_error_m);
+      s.max_wrong_rotation_error_deg =
+          std::max(s.max_wrong_rotation_error_deg, q.rotation_error_deg);
+    } else if (q.possible) {
+      ++s.accepted_correct;
+    }
+  }
+  s.recall = s.possible > 0 ? static_cast<double>(s.accepted_correct) / s.possible : 0.0;
+  s.median_position_error_m = Median(pos);
+  s.median_rotation_error_deg = Median(rot);
+  return s;
+}
+
+void WriteAcceptanceHeader(std::ostream& out) {
+  out << "| data set | queries | possible | accepted | accepted wrong (> 0.3 m or > 2 deg) | "
+         "worst wrong [m / deg] | recall (correct / possible) | median error [m / deg] | "
+         "rejections |\n"
+         "|---|---:|---:|---:|---:|---|---:|---|---|\n";
+}
+
+void WriteAcceptanceRow(std::ostream& out, const AcceptanceSummary& s) {
+  std::ostringstream row;
+  row << std::fixed << "| " << s.name << " | " << s.queries << " | " << s.possible << " | "
+      << s.accepted << " | " << s.accepted_wrong << " | ";
+  if (s.accepted_wrong > 0) {
+    row << std::setprecision(2) << s.max_wrong_position_error_m << " / "
+        << s.max_wrong_rotation_error_deg;
+  } else {
+    row << "-";
+  }
+  row << " | " << s.accepted_correct << " / " << s.possible << " = " << std::setprecision(1)
+      << 100.0 * s.recall << " % | ";
+  if (s.accepted > 0) {
+    row << std::setprecision(3) << s.median_position_error_m << " / " << std::setprecision(2)
+        << s.median_rotation_error_deg;
+  } else {
+    row << "-";
+  }
+  row << " | ";
+  bool first = true;
+  for (int k = 1; k < static_cast<int>(LocalizationStatus::kNumStatuses); ++k) {
+    if (s.stats.status_counts[k] == 0) continue;
+    row << (first ? "" : ", ") << LocalizationStatusName(static_cast<LocalizationStatus>(k)) << " "
+        << s.stats.status_counts[k];
+    first = false;
+  }
+  if (first) row << "-";
+  row << " |\n";
+  out << row.str();
+}
+
+void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery>& queries) {
+  std::ostringstream s;
+  s << "frame  status                    kpts  match  inl  oracle  possible  pos[m]  rot[deg]"
+       "  sigma_p[m]  sigma_R[deg]  verdict\n";
+  for (const AcceptanceQuery& q : queries) {
+    s << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
+      << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
+      << std::setw(7) << q.matches << std::setw(5) << q.inliers << std::setw(8)
+      << q.oracle_matches << std::setw(10) << (q.possible ? "y" : "n");
+    if (q.accepted) {
+      s << std::fixed << std::setprecision(3) << std::setw(8) << q.position_error_m
+        << std::setw(10) << q.rotation_error_deg << std::setw(12) << q.position_sigma_m
+        << std::setw(14) << q.rotation_sigma_deg << "  " << (q.wrong ? "WRONG" : "correct");
+    } else {
+      s << std::setw(8) << "-" << std::setw(10) << "-" << std::setw(12) << "-" << std::setw(14)
+        << "-" << "  rejected";
+    }
+    s << "\n";
+  }
+  out << s.str();
+}
+
+}  // namespace vilma::localizer
