@@ -50,26 +50,6 @@ std::string Fixed(double x, int digits) {
   return s.str();
 }
 
-int ParseInt(const std::string& flag, const std::string& text) {
-  std::size_t used = 0;
-  try {
-    const int value = std::stoi(text, &used);
-    if (used == text.size()) return value;
-  } catch (const std::exception&) {
-  }
-  throw UsageError(flag + ": expected an integer, got '" + text + "'");
-}
-
-double ParseDouble(const std::string& flag, const std::string& text) {
-  std::size_t used = 0;
-  try {
-    const double value = std::stod(text, &used);
-    if (used == text.size() && std::isfinite(value)) return value;
-  } catch (const std::exception&) {
-  }
-  throw UsageError(flag + ": expected a number, got '" + text + "'");
-}
-
 double Median(std::vector<double> v) {
   if (v.empty()) return 0.0;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
@@ -101,19 +81,19 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
       } else if (name == "--out") {
         mesh_path = arg.Value();
       } else if (name == "--every") {
-        every = ParseInt(arg.name(), arg.Value());
+        every = arg.IntValue();
       } else if (name == "--voxel") {
-        tsdf.voxel_size_m = ParseDouble(arg.name(), arg.Value());
+        tsdf.voxel_size_m = arg.DoubleValue();
       } else if (name == "--truncation") {
-        tsdf.truncation_distance_m = ParseDouble(arg.name(), arg.Value());
+        tsdf.truncation_distance_m = arg.DoubleValue();
       } else if (name == "--max-depth") {
-        tsdf.max_depth_m = stereo.max_depth_m = ParseDouble(arg.name(), arg.Value());
+        tsdf.max_depth_m = stereo.max_depth_m = arg.DoubleValue();
       } else if (name == "--num-disparities") {
-        stereo.sgbm.num_disparities = ParseInt(arg.name(), arg.Value());
+        stereo.sgbm.num_disparities = arg.IntValue();
       } else if (name == "--min-weight") {
-        tsdf.mesh_min_weight = ParseDouble(name, arg.Value());
+        tsdf.mesh_min_weight = arg.DoubleValue();
       } else if (name == "--filter-neighbours") {
-        tsdf.filter.neighbours = ParseInt(name, arg.Value());
+        tsdf.filter.neighbours = arg.IntValue();
       } else if (name == "--render") {
         render_path = arg.Value();
       } else if (!arg.is_option() && directory.empty()) {

@@ -29,18 +29,6 @@ namespace {
 namespace fs = std::filesystem;
 using localizer::LocalizationStatus;
 
-int ParsePositiveInt(const std::string& option, const std::string& v, int min) {
-  try {
-    std::size_t used = 0;
-    const int x = std::stoi(v, &used);
-    if (used != v.size() || x < min) throw std::invalid_argument(v);
-    return x;
-  } catch (const std::exception&) {
-    throw UsageError(option + ": expected an integer >= " + std::to_string(min) + ", got '" + v +
-                     "'");
-  }
-}
-
 // Ground truth T_W_I at t (IMU clock): the sample at t, else linear / slerp interpolation
 // between the two samples around t when they are at most 50 ms apart (EuRoC's ground truth is
 // 200 Hz and not on the camera times; the simulator writes a sample at every frame time).
@@ -172,9 +160,9 @@ LocalizeCommandOptions ParseLocalizeArgs(const std::vector<std::string>& args) {
     if (a == "--help" || a == "-h") {
       o.help = arg.Flag();
     } else if (a == "--every") {
-      o.every = ParsePositiveInt("--every", next(), 1);
+      o.every = arg.IntValue(1);
     } else if (a == "--camera") {
-      o.camera = ParsePositiveInt("--camera", next(), 0);
+      o.camera = arg.IntValue(0);
     } else if (a == "--rig") {
       o.rig_path = next();
     } else if (a == "--config") {

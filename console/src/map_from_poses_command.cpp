@@ -2,10 +2,12 @@
 
 #include <filesystem>
 #include <iomanip>
+#include <stdexcept>
 
 #include "vilma/console/command.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
+#include "vilma/core/strict_parse.h"
 #include "vilma/core/trajectory.h"
 #include "vilma/mapping/from_poses/map_from_poses.h"
 #include "vilma/mapstore/consistency.h"
@@ -63,19 +65,23 @@ int RunMapFromPosesCommand(const std::vector<std::string>& args, std::ostream& o
       } else if (name == "--out") {
         out_dir = arg.Value();
       } else if (name == "--every") {
-        options.every_nth_frame = std::stoi(arg.Value());
+        options.every_nth_frame = arg.IntValue();
       } else if (name == "--max-frames") {
-        options.max_frames = std::stoi(arg.Value());
+        options.max_frames = arg.IntValue();
       } else if (name == "--seed") {
-        options.seed = std::stoull(arg.Value());
+        options.seed = static_cast<uint64_t>(arg.Int64Value(0));
       } else if (name == "--name") {
         options.mission_name = arg.Value();
       } else if (name == "--perturb") {
         const std::string v = arg.Value();
         const std::size_t comma = v.find(',');
         if (comma == std::string::npos) throw UsageError("--perturb: expected METERS,DEGREES");
-        options.perturb_translation_m = std::stod(v.substr(0, comma));
-        options.perturb_rotation_deg = std::stod(v.substr(comma + 1));
+        try {
+          options.perturb_translation_m = ParseStrictDouble(v.substr(0, comma));
+          options.perturb_rotation_deg = ParseStrictDouble(v.substr(comma + 1));
+        } catch (const std::invalid_argument&) {
+          throw UsageError("--perturb: expected METERS,DEGREES (two numbers), got '" + v + "'");
+        }
       } else if (arg.is_option()) {
         throw UsageError("unknown option " + arg.word());
       } else if (dataset.empty()) {
@@ -90,9 +96,6 @@ int RunMapFromPosesCommand(const std::vector<std::string>& args, std::ostream& o
     if (!problem.empty()) throw UsageError(problem);
   } catch (const UsageError& e) {
     err << "vilma map-from-poses: " << e.what() << " (see --help)\n";
-    return kExitUsage;
-  } catch (const std::logic_error& e) {  // stoi / stod
-    err << "vilma map-from-poses: a number was expected (" << e.what() << ") (see --help)\n";
     return kExitUsage;
   }
   try {

@@ -73,14 +73,7 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
     } else if (a == "--print-config") {
       o.print_config = arg.Flag();
     } else if (a == "--camera") {
-      const std::string v = next();
-      try {
-        std::size_t used = 0;
-        o.camera = std::stoi(v, &used);
-        if (used != v.size() || o.camera < 0) throw std::invalid_argument(v);
-      } catch (const std::exception&) {
-        throw UsageError("--camera: expected a camera index >= 0, got '" + v + "'");
-      }
+      o.camera = arg.IntValue(0);
     } else if (a.rfind("-", 0) == 0) {
       throw UsageError("unknown option '" + a + "'");
     } else if (o.dataset.empty()) {

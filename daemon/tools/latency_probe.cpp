@@ -19,6 +19,8 @@
 #include <vilma/pose_t.hpp>
 #include <vilma/status_t.hpp>
 
+#include "vilma/core/arg_cursor.h"
+
 #include "vilma/core/timing.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_url.h"
@@ -74,34 +76,32 @@ struct Probe {
 int main(int argc, char** argv) {
   std::string url, camera = "CAM0", odom = "VILMA_ODOM", status = "VILMA_STATUS";
   double idle_timeout_s = 3.0, max_s = 600.0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto next = [&]() -> std::string {
-      if (i + 1 >= argc) {
-        std::cerr << "vilma-latency-probe: " << a << ": expected a value\n";
-        std::exit(2);
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    for (vilma::ArgCursor arg(args); arg.Next();) {
+      const std::string& a = arg.name();
+      if (a == "--help" || a == "-h") {
+        std::cout << "usage: vilma-latency-probe [--lcm-url URL] [--camera-channel CAM0]\n"
+                     "                           [--idle-timeout S] [--max-seconds S]\n"
+                     "Prints the end-to-end latency of vilma-estimatord (image on the bus ->\n"
+                     "VILMA_ODOM received) p50/p99/max, the daemon's CPU load from VILMA_STATUS\n"
+                     "and its drop counters. Ends S seconds after the last VILMA_ODOM.\n";
+        return 0;
+      } else if (a == "--lcm-url") {
+        url = arg.Value();
+      } else if (a == "--camera-channel") {
+        camera = arg.Value();
+      } else if (a == "--idle-timeout") {
+        idle_timeout_s = arg.DoubleValueIn(0.0, 1e6);
+      } else if (a == "--max-seconds") {
+        max_s = arg.DoubleValueIn(0.0, 1e7);
+      } else {
+        throw vilma::UsageError("unknown argument '" + arg.word() + "'");
       }
-      return argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << "usage: vilma-latency-probe [--lcm-url URL] [--camera-channel CAM0]\n"
-                   "                           [--idle-timeout S] [--max-seconds S]\n"
-                   "Prints the end-to-end latency of vilma-estimatord (image on the bus ->\n"
-                   "VILMA_ODOM received) p50/p99/max, the daemon's CPU load from VILMA_STATUS\n"
-                   "and its drop counters. Ends S seconds after the last VILMA_ODOM.\n";
-      return 0;
-    } else if (a == "--lcm-url") {
-      url = next();
-    } else if (a == "--camera-channel") {
-      camera = next();
-    } else if (a == "--idle-timeout") {
-      idle_timeout_s = std::stod(next());
-    } else if (a == "--max-seconds") {
-      max_s = std::stod(next());
-    } else {
-      std::cerr << "vilma-latency-probe: unknown argument '" << a << "'\n";
-      return 2;
     }
+  } catch (const vilma::UsageError& e) {
+    std::cerr << "vilma-latency-probe: " << e.what() << " (see --help)\n";
+    return 2;
   }
   lcm::LCM lcm(vilma::WithDefaultRecvBufSize(vilma::ResolveLcmUrl(url)));
   if (!lcm.good()) {

@@ -9,7 +9,9 @@
 #include <iostream>
 #include <lcm/lcm-cpp.hpp>
 #include <string>
+#include <vector>
 
+#include "vilma/core/arg_cursor.h"
 #include "vilma/drivers/lcm_rates.h"
 #include "vilma/drivers/lcm_url.h"
 
@@ -49,55 +51,34 @@ struct Options {
   bool quiet = false;
 };
 
-bool ParseNumber(const std::string& text, double* value) {
-  char* end = nullptr;
-  *value = std::strtod(text.c_str(), &end);
-  return !text.empty() && *end == '\0' && std::isfinite(*value) && *value >= 0;
-}
-
 // Returns an error message; "help" for --help.
 std::string Parse(int argc, char** argv, Options* o) {
-  for (int i = 1; i < argc; ++i) {
-    std::string arg = argv[i], value;
-    bool inline_value = false;
-    const size_t eq = arg.find('=');
-    if (arg.rfind("--", 0) == 0 && eq != std::string::npos) {
-      value = arg.substr(eq + 1);
-      arg = arg.substr(0, eq);
-      inline_value = true;
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    for (vilma::ArgCursor arg(args); arg.Next();) {
+      const std::string& name = arg.name();
+      if (name == "--help" || name == "-h") {
+        return "help";
+      } else if (name == "--quiet") {
+        o->quiet = arg.Flag();
+      } else if (name == "--lcm-url") {
+        o->lcm_url = arg.Value();
+      } else if (name == "--channels") {
+        o->channels = arg.Value();
+      } else if (name == "--recv-buf-size") {
+        o->recv_buf_size = arg.Int64Value(0);
+      } else if (name == "--duration") {
+        o->duration_s = arg.DoubleValueIn(0.0, 1e9);
+      } else if (name == "--expect-count") {
+        o->expect_count = arg.Int64Value(0);
+      } else if (name == "--idle-timeout") {
+        o->idle_timeout_s = arg.DoubleValueIn(0.0, 1e9);
+      } else {
+        return "unknown option " + arg.word();
+      }
     }
-    auto next = [&]() -> bool {
-      if (inline_value) return true;
-      if (i + 1 >= argc) return false;
-      value = argv[++i];
-      return true;
-    };
-    double number = 0;
-    if (arg == "--help" || arg == "-h") return "help";
-    if (arg == "--quiet") {
-      o->quiet = true;
-      continue;
-    }
-    if (arg != "--lcm-url" && arg != "--recv-buf-size" && arg != "--channels" &&
-        arg != "--duration" && arg != "--expect-count" && arg != "--idle-timeout") {
-      return "unknown option " + arg;
-    }
-    if (!next()) return arg + " needs a value";
-    if (arg == "--lcm-url") {
-      o->lcm_url = value;
-    } else if (arg == "--channels") {
-      o->channels = value;
-    } else if (!ParseNumber(value, &number)) {
-      return arg + ": '" + value + "' is not a non-negative number";
-    } else if (arg == "--recv-buf-size") {
-      o->recv_buf_size = static_cast<long long>(number);
-    } else if (arg == "--duration") {
-      o->duration_s = number;
-    } else if (arg == "--expect-count") {
-      o->expect_count = static_cast<long long>(number);
-    } else if (arg == "--idle-timeout") {
-      o->idle_timeout_s = number;
-    }
+  } catch (const vilma::UsageError& e) {
+    return e.what();
   }
   return "";
 }

@@ -3,7 +3,9 @@
 #include <exception>
 #include <iostream>
 #include <string>
+#include <vector>
 
+#include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
 #include "vilma/sim/simulator.h"
 #ifdef VILMA_SIM_LIVE
@@ -48,17 +50,6 @@ Options:
 )";
 }
 
-bool ParseInt64(const std::string& s, long long* out) {
-  char* end = nullptr;
-  *out = std::strtoll(s.c_str(), &end, 10);
-  return !s.empty() && *end == '\0';
-}
-bool ParseDouble(const std::string& s, double* out) {
-  char* end = nullptr;
-  *out = std::strtod(s.c_str(), &end);
-  return !s.empty() && *end == '\0';
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -68,81 +59,55 @@ int main(int argc, char** argv) {
   bool live = false;
   std::string lcm_url, channel_suffix;
   double rate = 1.0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string arg = argv[i];
-    auto value = [&](const char* name) -> std::string {
-      if (i + 1 >= argc) {
-        std::cerr << "vilma-sim: " << name << " needs a value (see --help)\n";
-        std::exit(2);
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    for (vilma::ArgCursor arg(args); arg.Next();) {
+      const std::string& name = arg.name();
+      if (name == "--help" || name == "-h") {
+        PrintHelp();
+        return 0;
+      } else if (name == "--out") {
+        out_dir = arg.Value();
+      } else if (name == "--session") {
+        options.session = arg.IntValue(0);
+      } else if (name == "--revisit") {
+        options.revisit_seconds = arg.DoubleValue();
+      } else if (name == "--seconds") {
+        options.seconds = arg.DoubleValue();
+      } else if (name == "--seed") {
+        options.seed = static_cast<uint64_t>(arg.Int64Value(0));
+      } else if (name == "--stereo") {
+        options.stereo = arg.Flag();
+      } else if (name == "--time-offset-ns") {
+        options.camera_time_offset_ns = arg.Int64Value();
+      } else if (name == "--motion-blur") {
+        options.motion_blur_samples = arg.IntValue();
+      } else if (name == "--exposure") {
+        options.exposure_s = arg.DoubleValue();
+      } else if (name == "--pixel-noise") {
+        options.noise_sigma = arg.DoubleValue();
+      } else if (name == "--no-imu-noise") {
+        arg.Flag();
+        options.imu = vilma::sim::ImuSimOptions::NoiseFree();
+      } else if (name == "--live") {
+        live = arg.Flag();
+      } else if (name == "--lcm-url") {
+        lcm_url = arg.Value();
+      } else if (name == "--channel-suffix") {
+        channel_suffix = arg.Value();
+      } else if (name == "--rate") {
+        rate = arg.DoubleValue();
+      } else if (arg.is_option()) {
+        throw vilma::UsageError("unknown option '" + arg.word() + "'");
+      } else if (world.empty()) {
+        world = name;
+      } else {
+        throw vilma::UsageError("unexpected argument '" + arg.word() + "'");
       }
-      return argv[++i];
-    };
-    auto bad = [&](const std::string& name, const std::string& v, const char* what) {
-      std::cerr << "vilma-sim: " << name << ": expected " << what << ", got '" << v << "'\n";
-      std::exit(2);
-    };
-    long long n = 0;
-    double d = 0.0;
-    if (arg == "--help" || arg == "-h") {
-      PrintHelp();
-      return 0;
-    } else if (arg == "--out") {
-      out_dir = value("--out");
-    } else if (arg == "--session") {
-      const std::string v = value("--session");
-      if (!ParseInt64(v, &n) || n < 0) bad(arg, v, "a session number >= 0");
-      options.session = static_cast<int>(n);
-    } else if (arg == "--revisit") {
-      const std::string v = value("--revisit");
-      if (!ParseDouble(v, &d)) bad(arg, v, "seconds of session 0");
-      options.revisit_seconds = d;
-    } else if (arg == "--seconds") {
-      const std::string v = value("--seconds");
-      if (!ParseDouble(v, &d)) bad(arg, v, "seconds");
-      options.seconds = d;
-    } else if (arg == "--seed") {
-      const std::string v = value("--seed");
-      if (!ParseInt64(v, &n) || n < 0) bad(arg, v, "a non-negative integer");
-      options.seed = static_cast<uint64_t>(n);
-    } else if (arg == "--stereo") {
-      options.stereo = true;
-    } else if (arg == "--time-offset-ns") {
-      const std::string v = value("--time-offset-ns");
-      if (!ParseInt64(v, &n)) bad(arg, v, "nanoseconds");
-      options.camera_time_offset_ns = n;
-    } else if (arg == "--motion-blur") {
-      const std::string v = value("--motion-blur");
-      if (!ParseInt64(v, &n)) bad(arg, v, "a sample count");
-      options.motion_blur_samples = static_cast<int>(n);
-    } else if (arg == "--exposure") {
-      const std::string v = value("--exposure");
-      if (!ParseDouble(v, &d)) bad(arg, v, "seconds");
-      options.exposure_s = d;
-    } else if (arg == "--pixel-noise") {
-      const std::string v = value("--pixel-noise");
-      if (!ParseDouble(v, &d)) bad(arg, v, "grey levels");
-      options.noise_sigma = d;
-    } else if (arg == "--no-imu-noise") {
-      options.imu = vilma::sim::ImuSimOptions::NoiseFree();
-    } else if (arg == "--live") {
-      live = true;
-    } else if (arg == "--lcm-url") {
-      lcm_url = value("--lcm-url");
-    } else if (arg == "--channel-suffix") {
-      channel_suffix = value("--channel-suffix");
-    } else if (arg == "--rate") {
-      const std::string v = value("--rate");
-      if (!ParseDouble(v, &d)) bad(arg, v, "a speed factor");
-      rate = d;
-    } else if (!arg.empty() && arg[0] == '-') {
-      std::cerr << "vilma-sim: unknown option '" << arg << "' (see --help)\n";
-      return 2;
-    } else if (world.empty()) {
-      world = arg;
-    } else {
-      std::cerr << "vilma-sim: unexpected argument '" << arg << "' (see --help)\n";
-      return 2;
     }
+  } catch (const vilma::UsageError& e) {
+    std::cerr << "vilma-sim: " << e.what() << " (see --help)\n";
+    return 2;
   }
   if (world.empty() || (out_dir.empty() && !live)) {
     std::cerr << "vilma-sim: need a PRESET or WORLD.yaml and --out DIR or --live (see --help)\n";

@@ -105,7 +105,7 @@ TEST_CASE("vilma dense-kitti: help and usage errors", "[dense_kitti_command]") {
       {{kitti, "--out", out, "--every", "0"}, "--every: expected N >= 1"},
       {{kitti, "--out", out, "--every", "-3"}, "--every: expected N >= 1"},
       {{kitti, "--out", out, "--every", "2x"}, "--every: expected an integer, got '2x'"},
-      {{kitti, "--out", out, "--voxel", "nan"}, "--voxel: expected a number"},
+      {{kitti, "--out", out, "--voxel", "nan"}, "--voxel: expected a finite number, got 'nan'"},
       {{kitti, "--out", out, "--num-disparities", "40"}, "num_disparities: a positive multiple of 16"},
       {{kitti, "--out", out, "--voxel", "0.5"}, "truncation_distance_m"},
       {{kitti, "--out", out, "--max-depth", "1.5"}, "--max-depth: expected more than 2.0 m"},

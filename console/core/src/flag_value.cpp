@@ -1,10 +1,10 @@
 #include "vilma/console/flag_value.h"
 
-#include <cerrno>
-#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
+
+#include "vilma/core/strict_parse.h"
 
 namespace vilma::console {
 
@@ -30,41 +30,13 @@ const char* FlagTypeExpectation(FlagType type) {
   return "a value";
 }
 
-bool ParseFlagBool(const std::string& text) {
-  if (text == "true" || text == "1" || text == "yes" || text == "on") return true;
-  if (text == "false" || text == "0" || text == "no" || text == "off") return false;
-  throw std::invalid_argument(FlagTypeExpectation(FlagType::kBool));
-}
+bool ParseFlagBool(const std::string& text) { return ParseStrictBool(text); }
 
 int64_t ParseFlagInt(const std::string& text, int64_t min, int64_t max) {
-  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0]))) {
-    throw std::invalid_argument(FlagTypeExpectation(FlagType::kInt));
-  }
-  errno = 0;
-  char* end = nullptr;
-  const long long value = std::strtoll(text.c_str(), &end, 10);
-  if (end == nullptr || *end != '\0' || errno == ERANGE) {
-    throw std::invalid_argument(FlagTypeExpectation(FlagType::kInt));
-  }
-  if (value < min || value > max) {
-    throw std::invalid_argument("an integer from " + std::to_string(min) + " to " +
-                                std::to_string(max));
-  }
-  return value;
+  return ParseStrictInt(text, min, max);
 }
 
-double ParseFlagDouble(const std::string& text) {
-  if (text.empty() || std::isspace(static_cast<unsigned char>(text[0]))) {
-    throw std::invalid_argument(FlagTypeExpectation(FlagType::kDouble));
-  }
-  errno = 0;
-  char* end = nullptr;
-  const double value = std::strtod(text.c_str(), &end);
-  if (end == nullptr || *end != '\0' || errno == ERANGE || !std::isfinite(value)) {
-    throw std::invalid_argument("a finite number");
-  }
-  return value;
-}
+double ParseFlagDouble(const std::string& text) { return ParseStrictDouble(text); }
 
 std::string FormatFlagDouble(double value) {
   char buffer[64];

@@ -7,7 +7,9 @@
 #include <iostream>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include "vilma/core/arg_cursor.h"
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/mapstore/stream/mission_stream_sender.h"
 #include "vilma/mapstore/stream/synthetic_mission.h"
@@ -44,44 +46,41 @@ int main(int argc, char** argv) {
   double rate_hz = 0.0, end_timeout_s = 30.0;
   bool send_end = true;
   try {
-    for (int i = 1; i < argc; ++i) {
-      const std::string a = argv[i];
-      auto value = [&]() -> std::string {
-        if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-        return argv[++i];
-      };
+    const std::vector<std::string> args(argv + 1, argv + argc);
+    for (vilma::ArgCursor arg(args); arg.Next();) {
+      const std::string& a = arg.name();
       if (a == "--help" || a == "-h") {
         std::cout << kUsage;
         return 0;
       } else if (a == "--lcm-url") {
-        url = value();
+        url = arg.Value();
       } else if (a == "--channel-suffix") {
-        suffix = value();
+        suffix = arg.Value();
       } else if (a == "--name") {
-        mission.name = value();
+        mission.name = arg.Value();
       } else if (a == "--seed") {
-        mission.seed = std::stoull(value());
+        mission.seed = static_cast<uint64_t>(arg.Int64Value(0));
       } else if (a == "--vertices") {
-        mission.vertices = std::stoi(value());
+        mission.vertices = arg.IntValue();
       } else if (a == "--vertices-per-delta") {
-        mission.vertices_per_delta = std::stoi(value());
+        mission.vertices_per_delta = arg.IntValue();
       } else if (a == "--keypoints") {
-        mission.keypoints_per_frame = std::stoi(value());
+        mission.keypoints_per_frame = arg.IntValue();
         if (mission.landmarks_per_vertex > mission.keypoints_per_frame) {
           mission.landmarks_per_vertex = mission.keypoints_per_frame;
         }
       } else if (a == "--rate") {
-        rate_hz = std::stod(value());
+        rate_hz = arg.DoubleValue();
       } else if (a == "--retransmit-timeout") {
-        options.retransmit_timeout_s = std::stod(value());
+        options.retransmit_timeout_s = arg.DoubleValue();
       } else if (a == "--max-retransmit-timeout") {
-        options.max_retransmit_timeout_s = std::stod(value());
+        options.max_retransmit_timeout_s = arg.DoubleValue();
       } else if (a == "--end-timeout") {
-        end_timeout_s = std::stod(value());
+        end_timeout_s = arg.DoubleValue();
       } else if (a == "--no-end") {
-        send_end = false;
+        send_end = !arg.Flag();
       } else {
-        throw std::invalid_argument("unknown argument " + a);
+        throw vilma::UsageError("unknown argument " + arg.word());
       }
     }
     std::string error = mission.Validate();

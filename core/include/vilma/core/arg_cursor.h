@@ -2,14 +2,21 @@
 // vilma-estimatord): options take their value as "--name value" or "--name=value"; a flag given
 // a value ("--print-config=no") is an error, not a yes.
 //   for (ArgCursor arg(args); arg.Next();) {
-//     if (arg.name() == "--out") o.out = arg.Value(); else ...
+//     if (arg.name() == "--out") o.out = arg.Value();
+//     else if (arg.name() == "--frames") o.frames = arg.IntValue(1);  // strict: "10x" is an error
+//     else ...
 //   }
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <sstream>
 #include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "vilma/core/strict_parse.h"
 
 namespace vilma {
 
@@ -52,6 +59,40 @@ class ArgCursor {
     if (next_ >= args_.size()) throw UsageError(name_ + ": expected a value");
     return args_[next_++];
   }
+  // Numeric and boolean values, parsed strictly (strict_parse.h): UsageError
+  // "<name>: expected an integer from 1 to 100, got '0'" when the text is not one.
+  int64_t Int64Value(int64_t min = std::numeric_limits<int64_t>::min(),
+                     int64_t max = std::numeric_limits<int64_t>::max()) {
+    const std::string text = Value();
+    try {
+      return ParseStrictInt(text, min, max);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(name_ + ": expected " + e.what() + ", got '" + text + "'");
+    }
+  }
+  // An int-sized value (the common case of counts and indices).
+  int IntValue(int min = std::numeric_limits<int>::min(),
+               int max = std::numeric_limits<int>::max()) {
+    return static_cast<int>(Int64Value(min, max));
+  }
+  double DoubleValue() {
+    const std::string text = Value();
+    try {
+      return ParseStrictDouble(text);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(name_ + ": expected " + e.what() + ", got '" + text + "'");
+    }
+  }
+  // A value in [min, max] (e.g. a rate > 0 given as DoubleValueIn(1e-9, inf)).
+  double DoubleValueIn(double min, double max) {
+    const double value = DoubleValue();
+    if (value < min || value > max) {
+      throw UsageError(name_ + ": expected a number from " + FormatNumber(min) + " to " +
+                       FormatNumber(max) + ", got " + FormatNumber(value));
+    }
+    return value;
+  }
+
   // For a flag (an option without a value): true, or UsageError "<name>: takes no value" when
   // it came as "--name=value" (so that "--quiet=no" is not read as --quiet).
   bool Flag() const {
@@ -60,6 +101,12 @@ class ArgCursor {
   }
 
  private:
+  static std::string FormatNumber(double value) {
+    std::ostringstream out;
+    out << value;
+    return out.str();
+  }
+
   const std::vector<std::string>& args_;
   std::size_t index_ = 0;
   std::size_t next_ = 0;
