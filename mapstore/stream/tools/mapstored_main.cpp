@@ -10,9 +10,11 @@
 #include <iostream>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include <vilma/status_t.hpp>
 
+#include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_url.h"
@@ -97,30 +99,28 @@ void Log(const std::string& text) {
 
 int main(int argc, char** argv) {
   std::string root, url, suffix, config_path;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&](std::string* out) {
-      if (i + 1 >= argc) {
-        std::cerr << "vilma-mapstored: " << a << " needs a value\n" << kUsage;
-        std::exit(2);
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  try {
+    for (vilma::ArgCursor arg(args); arg.Next();) {
+      const std::string& a = arg.name();
+      if (a == "--help" || a == "-h") {
+        std::cout << kUsage;
+        return 0;
+      } else if (a == "--root") {
+        root = arg.Value();
+      } else if (a == "--lcm-url") {
+        url = arg.Value();
+      } else if (a == "--channel-suffix") {
+        suffix = arg.Value();
+      } else if (a == "--config") {
+        config_path = arg.Value();
+      } else {
+        throw vilma::UsageError("unknown argument " + arg.word());
       }
-      *out = argv[++i];
-    };
-    if (a == "--help" || a == "-h") {
-      std::cout << kUsage;
-      return 0;
-    } else if (a == "--root") {
-      value(&root);
-    } else if (a == "--lcm-url") {
-      value(&url);
-    } else if (a == "--channel-suffix") {
-      value(&suffix);
-    } else if (a == "--config") {
-      value(&config_path);
-    } else {
-      std::cerr << "vilma-mapstored: unknown argument " << a << "\n" << kUsage;
-      return 2;
     }
+  } catch (const vilma::UsageError& e) {
+    std::cerr << "vilma-mapstored: " << e.what() << "\n" << kUsage;
+    return 2;
   }
   if (root.empty()) {
     std::cerr << "vilma-mapstored: --root DIR is required\n" << kUsage;
