@@ -1,0 +1,366 @@
+#include "vilma/drivers/aravis/aravis_options.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "vilma/core/arg_cursor.h"
+#include "vilma/core/error.h"
+#include "vilma/core/validate.h"
+#include "vilma/core/yaml_io.h"
+#include "vilma/drivers/driver_status.h"
+#include "vilma/drivers/lcm_url.h"
+
+namespace vilma::aravis {
+namespace {
+
+bool OneOf(const std::string& value, std::initializer_list<const char*> choices) {
+  return std::any_of(choices.begin(), choices.end(),
+                     [&](const char* c) { return value == c; });
+}
+
+bool Finite(double v) { return std::isfinite(v); }
+
+// The top-level scalar keys; each is also a flag --key-with-dashes. Booleans are flags without
+// a value (--fake) and have a --no-... form.
+struct KeyInfo {
+  const char* key;
+  bool is_bool;
+};
+constexpr KeyInfo kKeys[] = {
+    {"device", false},          {"fake", true},
+    {"pixel_format", false},    {"width", false},
+    {"height", false},          {"offset_x", false},
+    {"offset_y", false},        {"keep_16bit", true},
+    {"keep_bayer", true},       {"frame_rate_hz", false},
+    {"exposure_auto", false},   {"exposure_us", false},
+    {"gain_auto", false},       {"gain", false},
+    {"trigger", true},          {"trigger_source", false},
+    {"trigger_activation", false}, {"buffers", false},
+    {"packet_resend", true},    {"packet_size", false},
+    {"frame_timeout_s", false}, {"reconnect_interval_s", false},
+    {"timestamp_source", false}, {"timestamp_event", false},
+    {"time_offset_us", false},  {"host_latency_us", false},
+    {"lcm_url", false},         {"channel", false},
+    {"channel_suffix", false},  {"status_channel", false},
+    {"camera_id", false},       {"status_period_s", false},
+    {"seconds", false},         {"frames", false},
+    {"fault_lose_camera_after", false},
+};
+
+std::string FlagOf(const std::string& key) {
+  std::string flag = "--" + key;
+  std::replace(flag.begin(), flag.end(), '_', '-');
+  return flag;
+}
+
+ClockSyncOptions ReadClockSync(const YamlNode& node, ClockSyncOptions o) {
+  o.window_s = node.GetOr("window_s", o.window_s);
+  o.max_window_observations = node.GetOr("max_window_observations", o.max_window_observations);
+  o.min_observations = node.GetOr("min_observations", o.min_observations);
+  o.min_skew_span_s = node.GetOr("min_skew_span_s", o.min_skew_span_s);
+  o.max_skew_ppm = node.GetOr("max_skew_ppm", o.max_skew_ppm);
+  o.outlier_threshold_ms = node.GetOr("outlier_threshold_ms", o.outlier_threshold_ms);
+  o.jump_below_threshold_ms = node.GetOr("jump_below_threshold_ms", o.jump_below_threshold_ms);
+  o.jump_confirm_s = node.GetOr("jump_confirm_s", o.jump_confirm_s);
+  node.CheckNoUnknownKeys();
+  node.CheckValid(o.Validate());
+  return o;
+}
+
+AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
+  if (!root.IsMap() && !root.raw().IsNull()) root.Fail("", "a map of options");
+  AravisOptions o = base;
+  if (root.raw().IsNull()) return o;  // an empty file: all defaults
+  o.device = root.GetOr("device", o.device);
+  o.fake = root.GetOr("fake", o.fake);
+  o.pixel_format = root.GetOr("pixel_format", o.pixel_format);
+  o.width = root.GetOr("width", o.width);
+  o.height = root.GetOr("height", o.height);
+  o.offset_x = root.GetOr("offset_x", o.offset_x);
+  o.offset_y = root.GetOr("offset_y", o.offset_y);
+  o.keep_16bit = root.GetOr("keep_16bit", o.keep_16bit);
+  o.keep_bayer = root.GetOr("keep_bayer", o.keep_bayer);
+  o.frame_rate_hz = root.GetOr("frame_rate_hz", o.frame_rate_hz);
+  o.exposure_auto = root.GetOr("exposure_auto", o.exposure_auto);
+  o.exposure_us = root.GetOr("exposure_us", o.exposure_us);
+  o.gain_auto = root.GetOr("gain_auto", o.gain_auto);
+  o.gain = root.GetOr("gain", o.gain);
+  o.trigger = root.GetOr("trigger", o.trigger);
+  o.trigger_source = root.GetOr("trigger_source", o.trigger_source);
+  o.trigger_activation = root.GetOr("trigger_activation", o.trigger_activation);
+  o.buffers = root.GetOr("buffers", o.buffers);
+  o.packet_resend = root.GetOr("packet_resend", o.packet_resend);
+  o.packet_size = root.GetOr("packet_size", o.packet_size);
+  o.frame_timeout_s = root.GetOr("frame_timeout_s", o.frame_timeout_s);
+  o.reconnect_interval_s = root.GetOr("reconnect_interval_s", o.reconnect_interval_s);
+  o.timestamp_source = root.GetOr("timestamp_source", o.timestamp_source);
+  o.timestamp_event = root.GetOr("timestamp_event", o.timestamp_event);
+  o.time_offset_us = root.GetOr("time_offset_us", o.time_offset_us);
+  o.host_latency_us = root.GetOr("host_latency_us", o.host_latency_us);
+  if (root.Has("clock_sync")) o.clock_sync = ReadClockSync(root.MapChild("clock_sync"), o.clock_sync);
+  o.lcm_url = root.GetOr("lcm_url", o.lcm_url);
+  o.channel = root.GetOr("channel", o.channel);
+  o.channel_suffix = root.GetOr("channel_suffix", o.channel_suffix);
+  o.status_channel = root.GetOr("status_channel", o.status_channel);
+  o.camera_id = root.GetOr("camera_id", o.camera_id);
+  o.status_period_s = root.GetOr("status_period_s", o.status_period_s);
+  o.seconds = root.GetOr("seconds", o.seconds);
+  o.frames = root.GetOr("frames", o.frames);
+  o.fault_lose_camera_after = root.GetOr("fault_lose_camera_after", o.fault_lose_camera_after);
+  root.CheckNoUnknownKeys();
+  root.CheckValid(o.Validate());
+  return o;
+}
+
+}  // namespace
+
+std::string AravisOptions::ImageChannel() const { return ChannelName(channel, channel_suffix); }
+
+std::string AravisOptions::StatusChannel() const {
+  return ChannelName(status_channel.empty() ? DefaultStatusChannel(channel) : status_channel,
+                     channel_suffix);
+}
+
+std::string AravisOptions::Validate() const {
+  if (fake && !device.empty() && device.rfind("Fake", 0) != 0) {
+    return "device: expected empty or a Fake_N device with fake: true";
+  }
+  if (!OneOf(pixel_format, {"Mono8", "Mono10", "Mono12", "Mono16", "BayerRG8", "BayerGB8",
+                            "BayerGR8", "BayerBG8", "RGB8"})) {
+    return "pixel_format: expected Mono8, Mono10, Mono12, Mono16, BayerRG8, BayerGB8, BayerGR8, "
+           "BayerBG8 or RGB8, got '" + pixel_format + "'";
+  }
+  if (width < 0) return "width: expected >= 0 (0 = the camera's)";
+  if (height < 0) return "height: expected >= 0 (0 = the camera's)";
+  if (offset_x < 0) return "offset_x: expected >= 0";
+  if (offset_y < 0) return "offset_y: expected >= 0";
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("frame_rate_hz", frame_rate_hz));
+  if (!OneOf(exposure_auto, {"off", "once", "continuous"})) {
+    return "exposure_auto: expected off, once or continuous, got '" + exposure_auto + "'";
+  }
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("exposure_us", exposure_us));
+  if (!OneOf(gain_auto, {"off", "once", "continuous"})) {
+    return "gain_auto: expected off, once or continuous, got '" + gain_auto + "'";
+  }
+  if (!Finite(gain)) return "gain: expected a number (< 0 = the camera's)";
+  if (trigger && trigger_source.empty()) return "trigger_source: expected a line name";
+  if (trigger && trigger_source == "Software" && !(frame_rate_hz > 0.0)) {
+    return "frame_rate_hz: expected > 0 with trigger_source Software (the driver's trigger rate)";
+  }
+  if (trigger && trigger_activation.empty()) return "trigger_activation: expected a name";
+  if (buffers < 2 || buffers > 1024) return "buffers: expected 2 .. 1024";
+  if (packet_size != 0 && (packet_size < 576 || packet_size > 16384)) {
+    return "packet_size: expected 0 (auto) or 576 .. 16384 bytes";
+  }
+  VILMA_RETURN_IF_ERROR(ValidatePositive("frame_timeout_s", frame_timeout_s));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("reconnect_interval_s", reconnect_interval_s));
+  if (!OneOf(timestamp_source, {"device", "host"})) {
+    return "timestamp_source: expected device or host, got '" + timestamp_source + "'";
+  }
+  if (!OneOf(timestamp_event, {"exposure_start", "exposure_end"})) {
+    return "timestamp_event: expected exposure_start or exposure_end, got '" + timestamp_event + "'";
+  }
+  if (!Finite(time_offset_us)) return "time_offset_us: expected a number";
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("host_latency_us", host_latency_us));
+  {
+    const std::string e = clock_sync.Validate();
+    if (!e.empty()) return "clock_sync." + e;
+  }
+  for (const auto& [field, name] : {std::pair<const char*, std::string>{"channel", ImageChannel()},
+                                    {"status_channel", StatusChannel()}}) {
+    const std::string e = ValidateChannelName(name);
+    if (!e.empty()) return std::string(field) + ": " + e;
+  }
+  if (ImageChannel() == StatusChannel()) return "status_channel: expected another channel than channel";
+  if (camera_id < 0) return "camera_id: expected >= 0";
+  VILMA_RETURN_IF_ERROR(ValidatePositive("status_period_s", status_period_s));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("seconds", seconds));
+  if (frames < 0) return "frames: expected >= 0";
+  if (fault_lose_camera_after < 0) return "fault_lose_camera_after: expected >= 0";
+  return "";
+}
+
+AravisOptions ReadAravisOptions(const std::string& yaml_text, const std::string& source,
+                                const AravisOptions& base) {
+  return ReadNode(YamlNode::LoadString(yaml_text, source), base);
+}
+
+AravisOptions LoadAravisOptionsFile(const std::string& path, const AravisOptions& base) {
+  return ReadNode(YamlNode::LoadFile(path), base);
+}
+
+std::string AravisOptionsToYaml(const AravisOptions& o) {
+  YAML::Emitter out;
+  out << YAML::BeginMap;
+  auto kv = [&out](const char* key, const auto& value) { out << YAML::Key << key << YAML::Value << value; };
+  kv("device", o.device);
+  kv("fake", o.fake);
+  kv("pixel_format", o.pixel_format);
+  kv("width", o.width);
+  kv("height", o.height);
+  kv("offset_x", o.offset_x);
+  kv("offset_y", o.offset_y);
+  kv("keep_16bit", o.keep_16bit);
+  kv("keep_bayer", o.keep_bayer);
+  kv("frame_rate_hz", o.frame_rate_hz);
+  kv("exposure_auto", o.exposure_auto);
+  kv("exposure_us", o.exposure_us);
+  kv("gain_auto", o.gain_auto);
+  kv("gain", o.gain);
+  kv("trigger", o.trigger);
+  kv("trigger_source", o.trigger_source);
+  kv("trigger_activation", o.trigger_activation);
+  kv("buffers", o.buffers);
+  kv("packet_resend", o.packet_resend);
+  kv("packet_size", o.packet_size);
+  kv("frame_timeout_s", o.frame_timeout_s);
+  kv("reconnect_interval_s", o.reconnect_interval_s);
+  kv("timestamp_source", o.timestamp_source);
+  kv("timestamp_event", o.timestamp_event);
+  kv("time_offset_us", o.time_offset_us);
+  kv("host_latency_us", o.host_latency_us);
+  out << YAML::Key << "clock_sync" << YAML::Value << YAML::BeginMap;
+  kv("window_s", o.clock_sync.window_s);
+  kv("max_window_observations", o.clock_sync.max_window_observations);
+  kv("min_observations", o.clock_sync.min_observations);
+  kv("min_skew_span_s", o.clock_sync.min_skew_span_s);
+  kv("max_skew_ppm", o.clock_sync.max_skew_ppm);
+  kv("outlier_threshold_ms", o.clock_sync.outlier_threshold_ms);
+  kv("jump_below_threshold_ms", o.clock_sync.jump_below_threshold_ms);
+  kv("jump_confirm_s", o.clock_sync.jump_confirm_s);
+  out << YAML::EndMap;
+  kv("lcm_url", o.lcm_url);
+  kv("channel", o.channel);
+  kv("channel_suffix", o.channel_suffix);
+  kv("status_channel", o.status_channel);
+  kv("camera_id", o.camera_id);
+  kv("status_period_s", o.status_period_s);
+  kv("seconds", o.seconds);
+  kv("frames", o.frames);
+  kv("fault_lose_camera_after", o.fault_lose_camera_after);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
+  AravisCommandLine cl;
+  std::string config_path;
+  // Flags become a YAML map read by the same reader as the file, over the file's values: one
+  // set of types, defaults and checks for both.
+  YAML::Node overrides(YAML::NodeType::Map);
+  for (ArgCursor arg(args); arg.Next();) {
+    const std::string& name = arg.name();
+    if (name == "--help" || name == "-h") {
+      cl.help = arg.Flag();
+      return cl;
+    } else if (name == "--list") {
+      cl.list = arg.Flag();
+    } else if (name == "--print-config") {
+      cl.print_config = arg.Flag();
+    } else if (name == "--config") {
+      config_path = arg.Value();
+      if (config_path.empty()) throw UsageError("--config: expected a file");
+    } else {
+      bool known = false;
+      for (const KeyInfo& info : kKeys) {
+        const std::string flag = FlagOf(info.key);
+        if (name == flag) {
+          overrides[info.key] = info.is_bool ? (arg.Flag() ? "true" : "false") : arg.Value();
+          known = true;
+        } else if (info.is_bool && name == "--no-" + flag.substr(2)) {
+          arg.Flag();
+          overrides[info.key] = "false";
+          known = true;
+        }
+        if (known) break;
+      }
+      if (!known) throw UsageError("unknown argument '" + arg.word() + "'");
+    }
+  }
+  AravisOptions base;
+  if (!config_path.empty()) base = LoadAravisOptionsFile(config_path);
+  // Errors name the flag's key on the "command line" (e.g. "command line: frame_rate_hz: ...").
+  try {
+    cl.options = ReadNode(YamlNode(overrides, "command line", ""), base);
+  } catch (const InputError& e) {
+    // "command line: frame_rate_hz: ..." -> "command line: --frame-rate-hz: ..."
+    std::string message = e.what();
+    const std::string prefix = "command line: ";
+    if (message.rfind(prefix, 0) == 0) {
+      const std::size_t end = message.find(':', prefix.size());
+      const std::string key = message.substr(prefix.size(), end - prefix.size());
+      if (end != std::string::npos && key.find(' ') == std::string::npos) {
+        message = prefix + FlagOf(key) + message.substr(end);
+      }
+    }
+    throw InputError(message);
+  }
+  return cl;
+}
+
+std::string AravisUsage() {
+  return R"(Usage: vilma-aravis [--config FILE] [options]
+       vilma-aravis --list [--fake] [--device ID]
+
+Publishes a GenICam camera (GigE Vision / USB3 Vision, through Aravis 0.8) on LCM: images as
+vilma.image_t on CAM0 (GRAY8; GRAY16 or BAYER_* if asked), its health as vilma.status_t on
+VILMA_STATUS_CAM0 every second. utime is mid-exposure on the robot clock (CLOCK_REALTIME):
+the camera's timestamps mapped through a minimum-delay clock filter (docs/drivers.md).
+
+Modes:
+  --list                  print the cameras found (id, vendor, model, serial, protocol) and
+                          the chosen camera's pixel formats and features, then exit
+  --print-config          print the effective options as YAML and exit
+  --help                  this text
+
+Options (each is also a key of the YAML file given with --config, '-' written '_'; flags
+override the file; booleans take no value and have a --no-... form):
+  --config FILE           options file (config/aravis.yaml is the documented example)
+  --device ID             device id, serial number or user id (default: the first camera)
+  --fake                  Aravis's in-process fake camera (Fake_1): no hardware needed
+  --pixel-format F        Mono8 (default), Mono10, Mono12, Mono16, BayerRG8, BayerGB8,
+                          BayerGR8, BayerBG8, RGB8
+  --width W --height H    region of interest [px] (0 = the camera's current size)
+  --offset-x X --offset-y Y   region offset [px] (default 0)
+  --keep-16bit            Mono10/12/16 as GRAY16 (default: the top 8 bits as GRAY8)
+  --keep-bayer            Bayer as the raw BAYER_* mosaic (default: demosaiced to GRAY8)
+  --frame-rate-hz R       frame rate (default 20; 0 = the camera's setting)
+  --exposure-auto M       off (default), once, continuous
+  --exposure-us T         fixed exposure [us] (default 0 = the camera's setting)
+  --gain-auto M           off (default), once, continuous
+  --gain G                fixed gain, camera units (dB on most) (default -1 = the camera's)
+  --trigger               hardware trigger: FrameStart on --trigger-source (default Line0)
+                          with --trigger-activation (default RisingEdge); source Software
+                          makes the driver trigger at --frame-rate-hz
+  --trigger-source S --trigger-activation A
+  --buffers N             stream buffers (default 8)
+  --packet-resend / --no-packet-resend   GigE Vision packet resend (default on)
+  --packet-size B         GigE Vision packet size [bytes] (default 0 = auto-negotiate)
+  --frame-timeout-s T     no frame for T s = camera lost, reconnect (default 2; not while
+                          waiting for hardware triggers)
+  --reconnect-interval-s T   pause between reconnect attempts (default 1)
+  --timestamp-source S    device (default: camera clock through the clock filter) or host
+                          (buffer arrival time minus --host-latency-us)
+  --timestamp-event E     exposure_start (default) or exposure_end: what the camera's stamp
+                          marks; utime = mid-exposure
+  --time-offset-us T      constant added to utime [us] (default 0)
+  --host-latency-us T     timestamp-source host: exposure start to arrival [us] (default 0)
+  --lcm-url URL           LCM provider (default $LCM_DEFAULT_URL, else
+                          udpm://239.255.76.67:7667?ttl=0)
+  --channel NAME          image channel (default CAM0)
+  --channel-suffix S      appended to every channel name (e.g. _R2)
+  --status-channel NAME   status channel (default VILMA_STATUS_<channel>)
+  --camera-id N           image_t.camera_id (default 0)
+  --status-period-s T     status report period (default 1)
+  --seconds T             stop after T s (default 0 = until SIGINT/SIGTERM)
+  --frames N              stop after N published frames (default 0 = no limit)
+  --fault-lose-camera-after N   test: treat the camera as lost after N frames (reconnects)
+  (clock_sync.* filter options: YAML only, see config/aravis.yaml)
+
+Exit status: 0 on a clean stop (SIGINT, SIGTERM, --seconds, --frames), 1 on a runtime failure
+(no camera, camera refuses a setting, LCM unusable), 2 on a bad command line or options file.
+)";
+}
+
+}  // namespace vilma::aravis
