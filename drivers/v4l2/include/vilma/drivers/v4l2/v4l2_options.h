@@ -1,0 +1,54 @@
+// Options of vilma-v4l2: a YAML file (--config, strict: unknown keys are errors, absent keys
+// keep their defaults; config/v4l2.yaml lists them all) and command-line flags that override
+// its fields. `vilma-v4l2 --help` lists the flags; --print-config prints the effective
+// options as YAML that --config reads back.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "vilma/core/yaml_io.h"
+#include "vilma/drivers/v4l2/v4l2_capture.h"
+
+namespace vilma::v4l2 {
+
+struct V4l2DriverOptions {
+  CaptureOptions capture;
+  std::string lcm_url;            // "" = $LCM_DEFAULT_URL or LCM's default (ttl=0)
+  std::string channel = "CAM0";   // image_t channel (before the suffix)
+  std::string channel_suffix;     // appended to every channel (several robots on one network)
+  std::string status_channel;     // "" = VILMA_STATUS_<channel>
+  int camera_id = 0;              // image_t.camera_id: the camera's index in the sensor rig
+  double status_period_s = 1.0;   // status_t period [s]
+  double seconds = 0.0;           // stop after this long [s]; 0 = until SIGINT/SIGTERM
+  // Command line only:
+  bool fake = false;          // the in-process fake camera (fake_v4l2_io.h) instead of the kernel
+  bool list = false;          // print devices, formats, controls and exit
+  bool print_config = false;  // print the effective options and exit
+  std::string config_file;    // where the YAML came from ("" = defaults)
+
+  // "" or "field: expectation".
+  std::string Validate() const;
+  std::string DataChannel() const;    // channel + suffix
+  std::string StatusChannel() const;  // (status_channel or VILMA_STATUS_<channel>) + suffix
+};
+
+// Reads the options of a YAML map (absent keys keep the defaults of `defaults`). Throws
+// InputError naming the file and key for unknown keys, wrong types and invalid values.
+V4l2DriverOptions ReadV4l2Options(const YamlNode& root, const V4l2DriverOptions& defaults = {});
+V4l2DriverOptions LoadV4l2Options(const std::string& path);
+
+// The options as YAML that ReadV4l2Options reads back (command-line-only fields left out).
+std::string V4l2OptionsYaml(const V4l2DriverOptions& options);
+
+// The command line: --config first, then every flag over it. Throws UsageError (arg_cursor.h)
+// for a bad command line, InputError for a bad config file or values. Sets *help for --help.
+V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, bool* help);
+
+std::string V4l2Usage();
+
+// "auto" -> 0 (exposure) / -1 (gain), else the number; false if neither.
+bool ParseExposure(const std::string& text, double* exposure_us);
+bool ParseGain(const std::string& text, int* gain);
+
+}  // namespace vilma::v4l2
