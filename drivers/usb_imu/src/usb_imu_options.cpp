@@ -1,0 +1,355 @@
+#include "vilma/drivers/usb_imu/usb_imu_options.h"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "vilma/core/arg_cursor.h"
+#include "vilma/core/error.h"
+#include "vilma/core/validate.h"
+#include "vilma/drivers/driver_status.h"
+#include "vilma/drivers/lcm_url.h"
+#include "vilma/drivers/usb_imu/imu_stream.h"
+#include "vilma/drivers/usb_imu/mip_device.h"
+#include "vilma/drivers/usb_imu/mip_protocol.h"
+#include "vilma/drivers/usb_imu/transport.h"
+
+namespace vilma::usb_imu {
+namespace {
+
+std::string CheckChannel(const char* field, const std::string& name) {
+  const std::string problem = ValidateChannelName(name);
+  return problem.empty() ? "" : std::string(field) + ": " + problem;
+}
+
+std::string CheckId(const char* field, int id) {
+  if (id < 0 || id > 0xFFFF) return std::string(field) + ": expected a 16-bit id (0 .. 0xffff)";
+  return "";
+}
+
+// "0x199b", "6555" -> the number; UsageError naming the flag otherwise.
+int ParseUsbId(const std::string& flag, const std::string& text) {
+  errno = 0;
+  char* end = nullptr;
+  const long value = std::strtol(text.c_str(), &end, 0);
+  if (text.empty() || end == nullptr || *end != '\0' || errno != 0 || value < 0 ||
+      value > 0xFFFF) {
+    throw UsageError(flag + ": expected a 16-bit USB id like 0x199b, got '" + text + "'");
+  }
+  return static_cast<int>(value);
+}
+
+std::vector<int> ParseUsbIdList(const std::string& flag, const std::string& text) {
+  std::vector<int> ids;
+  std::stringstream in(text);
+  std::string part;
+  while (std::getline(in, part, ',')) ids.push_back(ParseUsbId(flag, part));
+  if (ids.empty()) throw UsageError(flag + ": expected one or more ids like 0x3065,0x3d65");
+  return ids;
+}
+
+std::string Hex(int id) {
+  std::ostringstream out;
+  out << "0x" << std::hex << id;
+  return out.str();
+}
+
+}  // namespace
+
+std::string UsbImuOptions::DataChannel() const { return ChannelName(channel, channel_suffix); }
+
+std::string UsbImuOptions::StatusChannel() const {
+  return ChannelName(status_channel.empty() ? DefaultStatusChannel(channel) : status_channel,
+                     channel_suffix);
+}
+
+std::string UsbImuOptions::Validate() const {
+  if (transport != "serial" && transport != "usb" && transport != "replay") {
+    return "transport: expected serial, usb or replay";
+  }
+  if (transport == "serial" && serial_device.empty()) return "serial_device: expected a tty path";
+  if (!IsSupportedBaud(baud)) {
+    return "baud: expected one of 9600 19200 38400 57600 115200 230400 460800 921600";
+  }
+  VILMA_RETURN_IF_ERROR(CheckId("usb_vendor_id", usb_vendor_id));
+  if (usb_product_ids.empty()) return "usb_product_ids: expected at least one product id";
+  for (int id : usb_product_ids) VILMA_RETURN_IF_ERROR(CheckId("usb_product_ids", id));
+  if (transport == "replay" && replay_file.empty()) {
+    return "replay_file: expected the recorded byte stream (transport replay)";
+  }
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("replay_rate", replay_rate));
+  MipFamily f;
+  if (!ParseMipFamily(family, &f)) return "family: expected gx5 or cv7";
+  if (!(std::isfinite(rate_hz) && rate_hz > 0.0 && rate_hz <= 10000.0)) {
+    return "rate_hz: expected 0 < rate <= 10000 [Hz]";
+  }
+  LowpassMode mode;
+  if (!ParseLowpassMode(lowpass, &mode)) return "lowpass: expected auto, off or manual";
+  if (mode == LowpassMode::kManual &&
+      !(std::isfinite(lowpass_cutoff_hz) && lowpass_cutoff_hz > 0.0 && lowpass_cutoff_hz <= 65535.0)) {
+    return "lowpass_cutoff_hz: expected 0 < cutoff <= 65535 [Hz] with lowpass manual";
+  }
+  if (command_timeout_ms < 10 || command_timeout_ms > 60000) {
+    return "command_timeout_ms: expected 10 .. 60000";
+  }
+  if (command_retries < 1 || command_retries > 100) return "command_retries: expected 1 .. 100";
+  TimeSource source;
+  if (!ParseTimeSource(time_source, &source)) return "time_source: expected host_sync or device";
+  if (transport == "replay" && source == TimeSource::kHostSync && replay_rate != 1.0) {
+    return "time_source: expected device when replay_rate is not 1 (host arrival times of a "
+           "sped-up replay are not a clock)";
+  }
+  if (transport == "replay" && configure) {
+    return "configure: expected false with transport replay (a recording cannot answer commands)";
+  }
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("transport_latency_us", transport_latency_us));
+  const std::string clock_error = clock_sync.Validate();
+  if (!clock_error.empty()) return "clock_sync." + clock_error;
+  VILMA_RETURN_IF_ERROR(CheckChannel("channel", DataChannel()));
+  VILMA_RETURN_IF_ERROR(CheckChannel("status_channel", StatusChannel()));
+  if (DataChannel() == StatusChannel()) return "status_channel: expected a channel other than channel";
+  if (!(std::isfinite(status_period_s) && status_period_s >= 0.05 && status_period_s <= 60.0)) {
+    return "status_period_s: expected 0.05 .. 60";
+  }
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("seconds", seconds));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("stall_timeout_s", stall_timeout_s));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("reconnect_max_backoff_s", reconnect_max_backoff_s, 0.1));
+  return "";
+}
+
+ClockSyncOptions ReadClockSyncOptions(const YamlNode& node) {
+  if (!node.IsMap()) node.Fail("", "a map of clock sync options");
+  ClockSyncOptions o;
+  o.window_s = node.GetOr("window_s", o.window_s);
+  o.max_window_observations = node.GetOr("max_window_observations", o.max_window_observations);
+  o.min_observations = node.GetOr("min_observations", o.min_observations);
+  o.min_skew_span_s = node.GetOr("min_skew_span_s", o.min_skew_span_s);
+  o.max_skew_ppm = node.GetOr("max_skew_ppm", o.max_skew_ppm);
+  o.outlier_threshold_ms = node.GetOr("outlier_threshold_ms", o.outlier_threshold_ms);
+  o.jump_below_threshold_ms = node.GetOr("jump_below_threshold_ms", o.jump_below_threshold_ms);
+  o.jump_confirm_s = node.GetOr("jump_confirm_s", o.jump_confirm_s);
+  node.CheckNoUnknownKeys();
+  node.CheckValid(o.Validate());
+  return o;
+}
+
+UsbImuOptions ReadUsbImuOptions(const YamlNode& node) {
+  UsbImuOptions o;
+  if (node.raw().IsNull()) return o;  // an empty file: all defaults
+  if (!node.IsMap()) node.Fail("", "a map of vilma-usb-imu options");
+  o.transport = node.GetOr("transport", o.transport);
+  o.serial_device = node.GetOr("serial_device", o.serial_device);
+  o.baud = node.GetOr("baud", o.baud);
+  o.usb_vendor_id = node.GetOr("usb_vendor_id", o.usb_vendor_id);
+  if (node.Has("usb_product_ids")) {
+    const YamlNode ids = node.Child("usb_product_ids");
+    if (!ids.IsSequence()) node.Fail("usb_product_ids", "a list of 16-bit ids like [0x3065]");
+    o.usb_product_ids.clear();
+    for (const YAML::Node& id : ids.raw()) {
+      try {
+        o.usb_product_ids.push_back(id.as<int>());
+      } catch (const YAML::Exception&) {
+        node.Fail("usb_product_ids", "a list of 16-bit ids like [0x3065]");
+      }
+    }
+  }
+  o.usb_serial = node.GetOr("usb_serial", o.usb_serial);
+  o.replay_file = node.GetOr("replay_file", o.replay_file);
+  o.replay_rate = node.GetOr("replay_rate", o.replay_rate);
+  o.family = node.GetOr("family", o.family);
+  o.configure = node.GetOr("configure", o.configure);
+  o.rate_hz = node.GetOr("rate_hz", o.rate_hz);
+  o.lowpass = node.GetOr("lowpass", o.lowpass);
+  o.lowpass_cutoff_hz = node.GetOr("lowpass_cutoff_hz", o.lowpass_cutoff_hz);
+  o.command_timeout_ms = node.GetOr("command_timeout_ms", o.command_timeout_ms);
+  o.command_retries = node.GetOr("command_retries", o.command_retries);
+  o.time_source = node.GetOr("time_source", o.time_source);
+  o.transport_latency_us = node.GetOr("transport_latency_us", o.transport_latency_us);
+  if (node.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(node.MapChild("clock_sync"));
+  o.lcm_url = node.GetOr("lcm_url", o.lcm_url);
+  o.channel = node.GetOr("channel", o.channel);
+  o.channel_suffix = node.GetOr("channel_suffix", o.channel_suffix);
+  o.status_channel = node.GetOr("status_channel", o.status_channel);
+  o.status_period_s = node.GetOr("status_period_s", o.status_period_s);
+  o.seconds = node.GetOr("seconds", o.seconds);
+  o.stall_timeout_s = node.GetOr("stall_timeout_s", o.stall_timeout_s);
+  o.reconnect_max_backoff_s = node.GetOr("reconnect_max_backoff_s", o.reconnect_max_backoff_s);
+  node.CheckNoUnknownKeys();
+  node.CheckValid(o.Validate());
+  return o;
+}
+
+UsbImuOptions LoadUsbImuOptions(const std::string& path) {
+  return ReadUsbImuOptions(YamlNode::LoadFile(path));
+}
+
+std::string UsbImuOptionsToYaml(const UsbImuOptions& o) {
+  YAML::Emitter out;
+  auto kv = [&out](const char* key, const auto& value) {
+    out << YAML::Key << key << YAML::Value << value;
+  };
+  out << YAML::BeginMap;
+  kv("transport", o.transport);
+  kv("serial_device", o.serial_device);
+  kv("baud", o.baud);
+  out << YAML::Key << "usb_vendor_id" << YAML::Value << YAML::Hex << o.usb_vendor_id << YAML::Dec;
+  out << YAML::Key << "usb_product_ids" << YAML::Value << YAML::Flow << YAML::BeginSeq;
+  for (int id : o.usb_product_ids) out << YAML::Hex << id;
+  out << YAML::Dec << YAML::EndSeq;
+  kv("usb_serial", o.usb_serial);
+  kv("replay_file", o.replay_file);
+  kv("replay_rate", o.replay_rate);
+  kv("family", o.family);
+  kv("configure", o.configure);
+  kv("rate_hz", o.rate_hz);
+  kv("lowpass", o.lowpass);
+  kv("lowpass_cutoff_hz", o.lowpass_cutoff_hz);
+  kv("command_timeout_ms", o.command_timeout_ms);
+  kv("command_retries", o.command_retries);
+  kv("time_source", o.time_source);
+  kv("transport_latency_us", o.transport_latency_us);
+  out << YAML::Key << "clock_sync" << YAML::Value << YAML::BeginMap;
+  kv("window_s", o.clock_sync.window_s);
+  kv("max_window_observations", o.clock_sync.max_window_observations);
+  kv("min_observations", o.clock_sync.min_observations);
+  kv("min_skew_span_s", o.clock_sync.min_skew_span_s);
+  kv("max_skew_ppm", o.clock_sync.max_skew_ppm);
+  kv("outlier_threshold_ms", o.clock_sync.outlier_threshold_ms);
+  kv("jump_below_threshold_ms", o.clock_sync.jump_below_threshold_ms);
+  kv("jump_confirm_s", o.clock_sync.jump_confirm_s);
+  out << YAML::EndMap;
+  kv("lcm_url", o.lcm_url);
+  kv("channel", o.channel);
+  kv("channel_suffix", o.channel_suffix);
+  kv("status_channel", o.status_channel);
+  kv("status_period_s", o.status_period_s);
+  kv("seconds", o.seconds);
+  kv("stall_timeout_s", o.stall_timeout_s);
+  kv("reconnect_max_backoff_s", o.reconnect_max_backoff_s);
+  out << YAML::EndMap;
+  return std::string(out.c_str()) + "\n";
+}
+
+UsbImuCommandLine ParseUsbImuCommandLine(int argc, const char* const* argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  UsbImuCommandLine cl;
+  // The config file first, wherever --config stands: flags override it.
+  for (ArgCursor arg(args); arg.Next();) {
+    if (arg.name() == "--config") {
+      cl.options = LoadUsbImuOptions(arg.Value());
+    } else if (arg.name() == "--help" || arg.name() == "-h") {
+      cl.help = true;
+      return cl;
+    }
+  }
+  UsbImuOptions& o = cl.options;
+  for (ArgCursor arg(args); arg.Next();) {
+    const std::string& name = arg.name();
+    if (name == "--config") {
+      arg.Value();
+    } else if (name == "--serial") {
+      o.transport = "serial";
+      o.serial_device = arg.Value();
+    } else if (name == "--baud") {
+      o.baud = arg.IntValue(1);
+    } else if (name == "--usb") {
+      arg.Flag();
+      o.transport = "usb";
+    } else if (name == "--vendor-id") {
+      o.usb_vendor_id = ParseUsbId(name, arg.Value());
+    } else if (name == "--product-id") {
+      o.usb_product_ids = ParseUsbIdList(name, arg.Value());
+    } else if (name == "--usb-serial") {
+      o.usb_serial = arg.Value();
+    } else if (name == "--replay-bytes") {
+      o.transport = "replay";
+      o.replay_file = arg.Value();
+      o.configure = false;
+    } else if (name == "--replay-rate") {
+      o.replay_rate = arg.DoubleValue();
+    } else if (name == "--family") {
+      o.family = arg.Value();
+    } else if (name == "--no-configure") {
+      arg.Flag();
+      o.configure = false;
+    } else if (name == "--rate-hz") {
+      o.rate_hz = arg.DoubleValue();
+    } else if (name == "--lowpass") {
+      o.lowpass = arg.Value();
+    } else if (name == "--lowpass-cutoff-hz") {
+      o.lowpass_cutoff_hz = arg.DoubleValue();
+    } else if (name == "--time-source") {
+      o.time_source = arg.Value();
+    } else if (name == "--transport-latency-us") {
+      o.transport_latency_us = arg.DoubleValue();
+    } else if (name == "--lcm-url") {
+      o.lcm_url = arg.Value();
+    } else if (name == "--channel") {
+      o.channel = arg.Value();
+    } else if (name == "--channel-suffix") {
+      o.channel_suffix = arg.Value();
+    } else if (name == "--status-channel") {
+      o.status_channel = arg.Value();
+    } else if (name == "--seconds") {
+      o.seconds = arg.DoubleValue();
+    } else if (name == "--list") {
+      cl.list = arg.Flag();
+    } else if (name == "--print-config") {
+      cl.print_config = arg.Flag();
+    } else {
+      throw UsageError(name + ": unknown option");
+    }
+  }
+  ThrowIfInvalid(o.Validate(), "options");
+  return cl;
+}
+
+std::string UsbImuUsage() {
+  const UsbImuOptions d;
+  std::ostringstream out;
+  out << R"(Usage: vilma-usb-imu [options]
+
+Reads a MicroStrain MIP IMU (3DM-GX5 or 3DM-CV7 family) over a serial tty, libusb or a recorded
+byte stream, configures its IMU stream (scaled accelerometer, scaled gyroscope, device
+timestamp), maps the device timestamps onto the robot's clock (CLOCK_REALTIME, minimum-delay
+clock sync) and publishes vilma.imu_t on IMU (accelerations in m/s^2, angular rates in rad/s,
+in the IMU's own frame) and vilma.status_t on VILMA_STATUS_IMU. docs/drivers.md has the details.
+
+Options (flags override --config; defaults in brackets):
+  --config FILE             YAML options (config/usb_imu.yaml lists every key)
+  --serial DEV              transport serial: tty path [)" << d.serial_device << R"(]
+  --baud N                  serial line rate [)" << d.baud << R"(]
+  --usb                     transport usb: libusb, the kernel's cdc_acm detached
+  --vendor-id ID            USB vendor id [)" << Hex(d.usb_vendor_id) << R"(]
+  --product-id ID[,ID..]    USB product ids to accept [0x3065,0x3d65]
+  --usb-serial S            pick the device with this USB serial number
+  --list                    list USB devices of the vendor id (0: all) and exit
+  --replay-bytes FILE       transport replay: a recorded MIP byte stream (implies
+                            --no-configure)
+  --replay-rate R           replay speed by device timestamps; 0 = as fast as possible
+                            (needs --time-source device) [1]
+  --family gx5|cv7          MIP command dialect and timestamp field [)" << d.family << R"(]
+  --no-configure            do not configure the device; take its stream as it comes
+  --rate-hz R               sample rate: base rate / integer decimation [)" << d.rate_hz << R"(]
+  --lowpass auto|off|manual accel and gyro low-pass filter [)" << d.lowpass << R"(]
+  --lowpass-cutoff-hz F     cutoff with --lowpass manual
+  --time-source host_sync|device
+                            device stamps through clock sync, or shifted by the first
+                            sample's offset [)" << d.time_source << R"(]
+  --transport-latency-us U  fixed delay from sampling to arrival, subtracted [0]
+  --lcm-url URL             LCM provider [$LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0]
+  --channel NAME            imu_t channel [IMU]
+  --channel-suffix S        appended to every channel name
+  --status-channel NAME     status_t channel [VILMA_STATUS_<channel>]
+  --seconds N               stop after N seconds (0 = until SIGINT/SIGTERM) [0]
+  --print-config            print the effective options as YAML and exit
+  --help                    this text
+
+Exit status: 0 after a clean stop (signal, --seconds, end of a replay), 1 when the device
+cannot be opened or configured or LCM fails, 2 on bad options or config file.
+)";
+  return out.str();
+}
+
+}  // namespace vilma::usb_imu
