@@ -384,6 +384,10 @@ void WriteEvalReport(std::ostream& out, const EvalCommandOptions& options, const
       << "  median " << Fixed(t.median, 4) << "  max " << Fixed(t.max, 4) << "\n";
   out << "ATE rotation [deg]:   rmse " << Fixed(r.rmse, 4) << "  mean " << Fixed(r.mean, 4)
       << "  median " << Fixed(r.median, 4) << "  max " << Fixed(r.max, 4) << "\n";
+  const ErrorStats& rp = result.ate.roll_pitch_deg;
+  out << "roll/pitch [deg]:     rmse " << Fixed(rp.rmse, 4) << "  mean " << Fixed(rp.mean, 4)
+      << "  median " << Fixed(rp.median, 4) << "  max " << Fixed(rp.max, 4)
+      << "  (gravity axis in the body frame)\n";
   for (const WithinCount& w : result.within) {
     out << "within " << FormatDistance(w.distance_m) << " m: " << w.poses << " / "
         << w.matched_poses << " poses (" << Fixed(100.0 * w.fraction, 1) << " %)\n";
@@ -435,6 +439,8 @@ void WriteEvalJson(std::ostream& out, const EvalCommandOptions& options, const T
   WriteStatsJson(out, "translation", "m", result.ate.translation_m);
   out << ", ";
   WriteStatsJson(out, "rotation", "deg", result.ate.rotation_deg);
+  out << ", ";
+  WriteStatsJson(out, "roll_pitch", "deg", result.ate.roll_pitch_deg);
   out << "},\n";
   out << "  \"rpe\": [";
   for (std::size_t i = 0; i < result.rpe.size(); ++i) {

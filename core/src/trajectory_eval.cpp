@@ -470,9 +470,14 @@ EvalResult EvaluateTrajectory(const Trajectory& gt, const Trajectory& est,
     // angle(R_gt^T R_est), equal to rpg's angle(R_est R_gt^T) (conjugate rotations).
     result.ate.rotation_errors_deg.push_back(AngleBetween(T_gt.rotation(), T_est.rotation()) *
                                              kRadToDeg);
+    const Eigen::Vector3d z_gt = T_gt.rotation().conjugate() * Eigen::Vector3d::UnitZ();
+    const Eigen::Vector3d z_est = T_est.rotation().conjugate() * Eigen::Vector3d::UnitZ();
+    result.ate.roll_pitch_errors_deg.push_back(
+        std::atan2(z_gt.cross(z_est).norm(), z_gt.dot(z_est)) * kRadToDeg);
   }
   result.ate.translation_m = ComputeErrorStats(result.ate.translation_errors_m);
   result.ate.rotation_deg = ComputeErrorStats(result.ate.rotation_errors_deg);
+  result.ate.roll_pitch_deg = ComputeErrorStats(result.ate.roll_pitch_errors_deg);
 
   for (double d : options.segment_lengths_m) {
     result.rpe.push_back(ComputeRelativeError(result.T_G_B_gt, result.T_G_B_est, d));

@@ -187,6 +187,36 @@ TEST_CASE("posyaw removes yaw + translation but not roll", "[eval]") {
   CHECK(se3.ate.translation_m.rmse < 1e-9);
 }
 
+TEST_CASE("roll/pitch error: a tilt of the estimate's world, blind to yaw", "[eval]") {
+  const Trajectory gt = MakeLoop();
+  // Yaw of the whole estimate: no roll/pitch error even without any alignment.
+  const Trajectory yawed = Transform(gt, Transformation(Rz(0.8), Eigen::Vector3d(1, 2, 3)), 1.0);
+  const EvalResult none = EvaluateTrajectory(gt, yawed, Options(AlignmentType::kNone));
+  CHECK(none.ate.rotation_deg.min > 40.0);
+  CHECK(none.ate.roll_pitch_deg.max < 1e-6);
+  // A 5 deg roll of the world, then the yaw: the gravity axis seen in the body is 5 deg off at
+  // every pose, with or without the posyaw alignment (which cannot remove a roll).
+  const Trajectory tilted =
+      Transform(gt, Transformation(Rz(0.8) * Rx(5.0 * kDeg), Eigen::Vector3d::Zero()), 1.0);
+  for (AlignmentType type : {AlignmentType::kNone, AlignmentType::kPosYaw}) {
+    const EvalResult r = EvaluateTrajectory(gt, tilted, Options(type));
+    REQUIRE(r.ate.roll_pitch_errors_deg.size() == gt.size());
+    CHECK(r.ate.roll_pitch_deg.min == Approx(5.0).margin(1e-6));
+    CHECK(r.ate.roll_pitch_deg.max == Approx(5.0).margin(1e-6));
+  }
+  // One pose pitched by 2 deg in its body frame about an axis perpendicular to its gravity axis.
+  Trajectory one = gt;
+  const Eigen::Vector3d z_B = one.T_W_B[7].rotation().conjugate() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d axis_B = z_B.unitOrthogonal();
+  one.T_W_B[7] = Transformation(
+      one.T_W_B[7].rotation() * Eigen::Quaterniond(Eigen::AngleAxisd(2.0 * kDeg, axis_B)),
+      one.T_W_B[7].translation());
+  const EvalResult r = EvaluateTrajectory(gt, one, Options(AlignmentType::kNone));
+  CHECK(r.ate.roll_pitch_errors_deg[7] == Approx(2.0).margin(1e-9));
+  CHECK(r.ate.roll_pitch_errors_deg[6] < 1e-9);
+  CHECK(r.ate.roll_pitch_deg.max == Approx(2.0).margin(1e-9));
+}
+
 TEST_CASE("GravityYaw is the yaw closest to a rotation; roll/pitch does not leak", "[eval]") {
   // Pure swings (rotations about horizontal axes) have no yaw.
   for (double axis_deg : {0.0, 30.0, 90.0, 135.0, -60.0}) {

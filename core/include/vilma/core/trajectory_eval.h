@@ -171,9 +171,15 @@ struct EvalOptions {
 struct AbsoluteError {
   ErrorStats translation_m;
   ErrorStats rotation_deg;
+  // Roll/pitch error: the angle between the gravity axis seen in the body frame by the ground
+  // truth and by the aligned estimate, angle(R_gt^T e_z, R_est^T e_z). Yaw does not enter, so
+  // for posyaw (and none/first) it does not depend on the alignment: the VIO attitude error
+  // that gravity makes observable.
+  ErrorStats roll_pitch_deg;
   // Per matched pose, in association order.
   std::vector<double> translation_errors_m;
   std::vector<double> rotation_errors_deg;
+  std::vector<double> roll_pitch_errors_deg;
 };
 
 struct RelativeError {
