@@ -124,10 +124,36 @@ int MipFramer::CheckCandidate(std::size_t at) const {
   return MipChecksum(buffer_.data() + at, total - kMipChecksumBytes) == listed ? 1 : -1;
 }
 
+bool MipFramer::WholeWithWrongLength(std::size_t at, std::size_t end) const {
+  // [at, end) is a whole packet whose length byte alone was corrupted if its checksum holds
+  // with the length that fits: then the candidate was not cut short.
+  const std::size_t total = end - at;
+  if (total < kMipHeaderBytes + kMipChecksumBytes ||
+      total - kMipHeaderBytes - kMipChecksumBytes > kMipMaxPayloadBytes) {
+    return false;
+  }
+  std::vector<uint8_t> copy(buffer_.begin() + static_cast<std::ptrdiff_t>(at),
+                            buffer_.begin() + static_cast<std::ptrdiff_t>(end));
+  copy[3] = static_cast<uint8_t>(total - kMipHeaderBytes - kMipChecksumBytes);
+  const uint16_t listed = static_cast<uint16_t>((copy[total - 2] << 8) | copy[total - 1]);
+  return MipChecksum(copy.data(), total - kMipChecksumBytes) == listed;
+}
+
 std::vector<MipPacket> MipFramer::Push(const uint8_t* data, std::size_t size) {
-  std::vector<MipPacket> packets;
   stats_.bytes += static_cast<int64_t>(size);
   buffer_.insert(buffer_.end(), data, data + size);
+  return Parse(false);
+}
+
+std::vector<MipPacket> MipFramer::Flush() {
+  std::vector<MipPacket> packets = Parse(true);
+  stats_.garbage_bytes += static_cast<int64_t>(buffer_.size());  // nothing left but noise
+  buffer_.clear();
+  return packets;
+}
+
+std::vector<MipPacket> MipFramer::Parse(bool at_end) {
+  std::vector<MipPacket> packets;
   std::size_t pos = 0;
   const std::size_t n = buffer_.size();
   while (pos < n) {
@@ -136,13 +162,28 @@ std::vector<MipPacket> MipFramer::Push(const uint8_t* data, std::size_t size) {
       ++pos;
       continue;
     }
-    if (pos + 1 >= n) break;  // a lone first sync byte: wait for the next read
+    if (pos + 1 >= n) {  // a lone first sync byte: wait for the next read
+      if (at_end) {
+        ++stats_.garbage_bytes;
+        ++pos;
+      }
+      break;
+    }
     if (buffer_[pos + 1] != kMipSync2) {
       ++stats_.garbage_bytes;
       ++pos;
       continue;
     }
     const int check = CheckCandidate(pos);
+    if (check == 0 && at_end) {
+      // Cut by the end of the stream; packets may still hide in its bytes (a corrupted
+      // length byte announced more than is there): search again after its first byte.
+      ++stats_.truncated_packets;
+      ++stats_.resyncs;
+      ++stats_.garbage_bytes;
+      ++pos;
+      continue;
+    }
     if (check == 0) break;  // not complete yet
     const std::size_t total = kMipHeaderBytes + buffer_[pos + 3] + kMipChecksumBytes;
     if (check > 0) {
@@ -162,19 +203,20 @@ std::vector<MipPacket> MipFramer::Push(const uint8_t* data, std::size_t size) {
       continue;
     }
     // Bad checksum. A sync pair inside the candidate that starts a valid packet means this
-    // one was cut short (the sender restarted mid-packet); decide only when that inner packet
-    // is complete, so that the count does not depend on how reads split the stream.
+    // one was cut short (the sender restarted mid-packet), unless the bytes before it are a
+    // whole packet with a corrupted length byte; decide only when that inner packet is
+    // complete, so that the count does not depend on how reads split the stream.
     bool truncated = false;
     bool wait = false;
     for (std::size_t j = pos + 1; j + 1 < pos + total && j + 1 < n; ++j) {
       if (buffer_[j] == kMipSync1 && buffer_[j + 1] == kMipSync2) {
         const int inner = CheckCandidate(j);
         wait = inner == 0;
-        truncated = inner > 0;
+        truncated = inner > 0 && !WholeWithWrongLength(pos, j);
         break;
       }
     }
-    if (wait) break;
+    if (wait && !at_end) break;
     if (truncated) {
       ++stats_.truncated_packets;
     } else {
@@ -186,14 +228,6 @@ std::vector<MipPacket> MipFramer::Push(const uint8_t* data, std::size_t size) {
   }
   buffer_.erase(buffer_.begin(), buffer_.begin() + static_cast<std::ptrdiff_t>(pos));
   return packets;
-}
-
-void MipFramer::Flush() {
-  if (buffer_.size() >= 2 && buffer_[0] == kMipSync1 && buffer_[1] == kMipSync2) {
-    ++stats_.truncated_packets;
-  }
-  stats_.garbage_bytes += static_cast<int64_t>(buffer_.size());
-  buffer_.clear();
 }
 
 bool DecodeMipImuSample(const MipPacket& packet, MipImuSample* sample, MipDecodeStats* stats) {

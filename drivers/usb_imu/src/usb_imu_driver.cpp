@@ -117,7 +117,7 @@ class Driver {
       if (n > 0) {
         HandleBytes(buffer, n, arrival_ns);
       } else if (transport_->AtEnd()) {
-        framer_.Flush();
+        HandlePackets(framer_.Flush(), arrival_ns);
         break;
       }
       MaybeUpdateStatus(false);
@@ -181,7 +181,11 @@ class Driver {
   }
 
   void HandleBytes(const uint8_t* data, std::size_t n, int64_t arrival_ns) {
-    for (const MipPacket& packet : framer_.Push(data, n)) {
+    HandlePackets(framer_.Push(data, n), arrival_ns);
+  }
+
+  void HandlePackets(const std::vector<MipPacket>& packets, int64_t arrival_ns) {
+    for (const MipPacket& packet : packets) {
       MipImuSample sample;
       if (!DecodeMipImuSample(packet, &sample, &decode_stats_)) {
         status_->Increment("other_packets");  // replies, other descriptor sets

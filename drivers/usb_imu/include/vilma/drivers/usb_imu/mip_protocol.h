@@ -115,16 +115,20 @@ class MipFramer {
  public:
   // Appends bytes and returns the packets completed by them (in order).
   std::vector<MipPacket> Push(const uint8_t* data, std::size_t size);
-  // End of the stream: whatever is buffered is counted (a started packet as truncated, other
-  // bytes as garbage) and dropped.
-  void Flush();
+  // End of the stream: a started packet that cannot complete is counted as truncated and
+  // searched for packets inside it (returned); all other buffered bytes count as garbage.
+  std::vector<MipPacket> Flush();
   void Clear() { buffer_.clear(); }
   const MipFramerStats& stats() const { return stats_; }
   std::size_t buffered() const { return buffer_.size(); }
 
  private:
-  // Checksum-valid complete packet at buffer_[at], or -1 if not (or not complete yet: 0).
+  // 1: a checksum-valid complete packet at buffer_[at]; -1: a wrong checksum; 0: incomplete.
   int CheckCandidate(std::size_t at) const;
+  // Emits the complete packets at the front of buffer_; at_end: nothing more will come.
+  std::vector<MipPacket> Parse(bool at_end);
+  // Bytes [at, end) are a complete packet except for a wrong length byte.
+  bool WholeWithWrongLength(std::size_t at, std::size_t end) const;
 
   std::vector<uint8_t> buffer_;
   MipFramerStats stats_;
