@@ -97,6 +97,7 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
   q.status = r.status;
   q.matches = static_cast<int>(r.matches.size());
   q.inliers = static_cast<int>(r.inliers.size());
+  q.quality = r.quality;
   // Oracle on the RANSAC input: distinct keypoints whose landmark reprojects near them under
   // the ground truth.
   const Transformation T_C_G = (T_G_I_gt * T_I_C).inverse();
@@ -193,7 +194,8 @@ void WriteAcceptanceRow(std::ostream& out, const AcceptanceSummary& s) {
 void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery>& queries) {
   std::ostringstream s;
   s << "frame  status                    kpts  match  inl  oracle  possible  pos[m]  rot[deg]"
-       "  sigma_p[m]  sigma_R[deg]  verdict\n";
+       "  sigma_p[m]  sigma_R[deg]  verdict   ratio  med/p90[px]  cells  hull  sp[m] sR[deg] "
+       "rival\n";
   for (const AcceptanceQuery& q : queries) {
     s << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
       << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
@@ -207,6 +209,12 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
       s << std::setw(8) << "-" << std::setw(10) << "-" << std::setw(12) << "-" << std::setw(14)
         << "-" << "  rejected";
     }
+    const PoseQuality& g = q.quality;
+    s << std::fixed << std::setprecision(2) << std::setw(8) << g.inlier_ratio << std::setw(7)
+      << g.median_error_px << "/" << std::left << std::setw(5) << g.p90_error_px << std::right
+      << std::setw(7) << g.cell_fraction << std::setw(6) << g.hull_fraction << std::setprecision(3)
+      << std::setw(7) << g.position_sigma_m << std::setw(7) << g.rotation_sigma_deg
+      << std::setprecision(2) << std::setw(6) << g.rival_ratio;
     s << "\n";
   }
   out << s.str();

@@ -55,7 +55,7 @@ std::string LocalizerOptions::Validate() const {
   const std::pair<const char*, std::string> checks[] = {
       {"map", map.Validate()},           {"projection", projection.Validate()},
       {"index", index.Validate()},       {"matching", matching.Validate()},
-      {"ransac", ransac.Validate()}};
+      {"ransac", ransac.Validate()},     {"acceptance", acceptance.Validate()}};
   for (const auto& [section, error] : checks) {
     if (!error.empty()) return std::string(section) + "." + error;
   }
@@ -111,6 +111,25 @@ LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::
     Read(n, "seed", &o.ransac.seed);
     n.CheckNoUnknownKeys();
   }
+  if (root.Has("acceptance")) {
+    const YamlNode n = root.Child("acceptance");
+    PoseAcceptanceOptions& a = o.acceptance;
+    Read(n, "min_inlier_ratio", &a.min_inlier_ratio);
+    Read(n, "refine_rounds", &a.refine_rounds);
+    Read(n, "max_median_error_ratio", &a.max_median_error_ratio);
+    Read(n, "max_p90_error_ratio", &a.max_p90_error_ratio);
+    Read(n, "grid_cols", &a.grid_cols);
+    Read(n, "grid_rows", &a.grid_rows);
+    Read(n, "min_cell_fraction", &a.min_cell_fraction);
+    Read(n, "min_hull_fraction", &a.min_hull_fraction);
+    Read(n, "max_position_sigma_m", &a.max_position_sigma_m);
+    Read(n, "max_rotation_sigma_deg", &a.max_rotation_sigma_deg);
+    Read(n, "rival_check", &a.rival_check);
+    Read(n, "rival_exclusion_factor", &a.rival_exclusion_factor);
+    Read(n, "max_rival_ratio", &a.max_rival_ratio);
+    Read(n, "rival_max_iterations", &a.rival_max_iterations);
+    n.CheckNoUnknownKeys();
+  }
   root.CheckNoUnknownKeys();
   ThrowIfInvalid(o.Validate(), source);
   return o;
@@ -132,6 +151,11 @@ const char* LocalizationStatusName(LocalizationStatus status) {
     case LocalizationStatus::kTooFewMatches: return "too_few_matches";
     case LocalizationStatus::kRansacFailed: return "ransac_failed";
     case LocalizationStatus::kTooFewInliers: return "too_few_inliers";
+    case LocalizationStatus::kLowInlierRatio: return "low_inlier_ratio";
+    case LocalizationStatus::kHighReprojectionError: return "high_reprojection_error";
+    case LocalizationStatus::kClusteredInliers: return "clustered_inliers";
+    case LocalizationStatus::kUncertainPose: return "uncertain_pose";
+    case LocalizationStatus::kAmbiguousPose: return "ambiguous_pose";
     case LocalizationStatus::kNumStatuses: break;
   }
   return "unknown";
@@ -282,25 +306,41 @@ LocalizationResult Localizer::Localize(const Camera& camera, const Transformatio
     p_G.push_back(map_->p_G[m.landmark]);
   }
   const PoseResult pose = EstimateCameraPose(camera, uv, p_G, options_.ransac);
-  result.pose_ms = MsSince(t0);
-  result.pose_cpu_ms = ThreadCpuMs() - c0;
   result.ransac_iterations = pose.ransac_iterations;
-  switch (pose.status) {
-    case PoseStatus::kOk: result.status = LocalizationStatus::kOk; break;
-    case PoseStatus::kTooFewMatches: result.status = LocalizationStatus::kTooFewMatches; break;
-    case PoseStatus::kRansacFailed: result.status = LocalizationStatus::kRansacFailed; break;
-    case PoseStatus::kTooFewInliers: result.status = LocalizationStatus::kTooFewInliers; break;
-  }
   if (pose.status == PoseStatus::kRansacFailed || pose.status == PoseStatus::kTooFewMatches) {
+    result.status = pose.status == PoseStatus::kRansacFailed ? LocalizationStatus::kRansacFailed
+                                                             : LocalizationStatus::kTooFewMatches;
+    result.pose_ms = MsSince(t0);
+    result.pose_cpu_ms = ThreadCpuMs() - c0;
     return result;
   }
-  result.T_G_C = pose.T_G_C;
+  // A model: refined with all its inliers and gated (pose_acceptance.h). The pose and its
+  // measurements are kept in the result also when a gate rejects it, for diagnosis.
+  const AcceptedPose accepted =
+      AcceptPose(camera, uv, p_G, pose, options_.ransac, options_.acceptance);
+  result.pose_ms = MsSince(t0);
+  result.pose_cpu_ms = ThreadCpuMs() - c0;
+  switch (accepted.verdict) {
+    case PoseVerdict::kAccepted: result.status = LocalizationStatus::kOk; break;
+    case PoseVerdict::kTooFewInliers: result.status = LocalizationStatus::kTooFewInliers; break;
+    case PoseVerdict::kLowInlierRatio: result.status = LocalizationStatus::kLowInlierRatio; break;
+    case PoseVerdict::kHighReprojectionError:
+      result.status = LocalizationStatus::kHighReprojectionError;
+      break;
+    case PoseVerdict::kClusteredInliers:
+      result.status = LocalizationStatus::kClusteredInliers;
+      break;
+    case PoseVerdict::kUncertainPose: result.status = LocalizationStatus::kUncertainPose; break;
+    case PoseVerdict::kAmbiguousPose: result.status = LocalizationStatus::kAmbiguousPose; break;
+  }
+  result.T_G_C = accepted.T_G_C;
   // T_G_I = T_G_C T_C_I; T_G_C Exp(xi_C) T_C_I = T_G_I Exp(Ad_{T_I_C} xi_C).
-  result.T_G_I = pose.T_G_C * T_I_C.inverse();
+  result.T_G_I = accepted.T_G_C * T_I_C.inverse();
   const Matrix6d Ad = T_I_C.Adjoint();
-  result.covariance_I = Ad * pose.covariance_C * Ad.transpose();
-  result.inliers = pose.inliers;
-  result.rms_reprojection_px = pose.rms_reprojection_px;
+  result.covariance_I = Ad * accepted.covariance_C * Ad.transpose();
+  result.inliers = accepted.inliers;
+  result.rms_reprojection_px = accepted.rms_reprojection_px;
+  result.quality = accepted.quality;
   return result;
 }
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
+#include <set>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -101,6 +102,20 @@ TEST_CASE("localizer options: the shipped YAML parses to the defaults", "[locali
   CHECK(o.ransac.threshold_px == d.ransac.threshold_px);
   CHECK(o.ransac.min_inliers == d.ransac.min_inliers);
   CHECK(o.ransac.seed == d.ransac.seed);
+  CHECK(o.acceptance.min_inlier_ratio == d.acceptance.min_inlier_ratio);
+  CHECK(o.acceptance.refine_rounds == d.acceptance.refine_rounds);
+  CHECK(o.acceptance.max_median_error_ratio == d.acceptance.max_median_error_ratio);
+  CHECK(o.acceptance.max_p90_error_ratio == d.acceptance.max_p90_error_ratio);
+  CHECK(o.acceptance.grid_cols == d.acceptance.grid_cols);
+  CHECK(o.acceptance.grid_rows == d.acceptance.grid_rows);
+  CHECK(o.acceptance.min_cell_fraction == d.acceptance.min_cell_fraction);
+  CHECK(o.acceptance.min_hull_fraction == d.acceptance.min_hull_fraction);
+  CHECK(o.acceptance.max_position_sigma_m == d.acceptance.max_position_sigma_m);
+  CHECK(o.acceptance.max_rotation_sigma_deg == d.acceptance.max_rotation_sigma_deg);
+  CHECK(o.acceptance.rival_check == d.acceptance.rival_check);
+  CHECK(o.acceptance.rival_exclusion_factor == d.acceptance.rival_exclusion_factor);
+  CHECK(o.acceptance.max_rival_ratio == d.acceptance.max_rival_ratio);
+  CHECK(o.acceptance.rival_max_iterations == d.acceptance.rival_max_iterations);
   CHECK(d.Validate().empty());
 }
 
@@ -116,6 +131,22 @@ TEST_CASE("localizer options: unknown keys and bad values name file and key", "[
                   InputError);
   CHECK(ParseLocalizerOptions("matching:\n  min_matches: 20\n", "loc.yaml").matching.min_matches ==
         20);
+  // The acceptance section: strict keys, validated values, read values.
+  CHECK_THROWS_WITH(ParseLocalizerOptions("acceptance:\n  max_rival: 0.5\n", "loc.yaml"),
+                    Catch::Contains("loc.yaml") && Catch::Contains("max_rival"));
+  CHECK_THROWS_WITH(ParseLocalizerOptions("acceptance:\n  max_rival_ratio: 0\n", "loc.yaml"),
+                    Catch::Contains("loc.yaml") && Catch::Contains("acceptance.max_rival_ratio"));
+  const LocalizerOptions a = ParseLocalizerOptions(
+      "acceptance:\n  rival_check: false\n  max_position_sigma_m: 0.05\n", "loc.yaml");
+  CHECK_FALSE(a.acceptance.rival_check);
+  CHECK(a.acceptance.max_position_sigma_m == 0.05);
+  // Every status has its own name.
+  std::set<std::string> names;
+  for (int k = 0; k < static_cast<int>(LocalizationStatus::kNumStatuses); ++k) {
+    names.insert(LocalizationStatusName(static_cast<LocalizationStatus>(k)));
+  }
+  CHECK(names.size() == static_cast<std::size_t>(LocalizationStatus::kNumStatuses));
+  CHECK(names.count("unknown") == 0);
 }
 
 TEST_CASE("covisibility: the largest component through shared observers is kept",

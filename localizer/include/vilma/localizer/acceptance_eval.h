@@ -64,7 +64,8 @@ struct AcceptanceQuery {
   double position_error_m = -1.0;    // -1 if not accepted
   double rotation_error_deg = -1.0;
   double position_sigma_m = 0.0;     // sqrt of the largest eigenvalue of the position covariance
-  double rotation_sigma_deg = 0.0;   // likewise of the rotation covariance
+  double rotation_sigma_deg = 0.0;   // likewise of the rotation covariance (IMU frame)
+  PoseQuality quality;               // what the acceptance gates measured
 };
 
 // Localizes one query (camera C with extrinsics T_I_C) and judges it against T_G_I_gt.

@@ -17,6 +17,7 @@
 #include "vilma/core/geometry.h"
 #include "vilma/localizer/descriptor_index.h"
 #include "vilma/localizer/localization_map.h"
+#include "vilma/localizer/pose_acceptance.h"
 #include "vilma/localizer/pose_ransac.h"
 
 namespace vilma::localizer {
@@ -35,11 +36,13 @@ struct LocalizerOptions {
   DescriptorIndexOptions index;
   MatchingOptions matching;
   PoseRansacOptions ransac;
+  PoseAcceptanceOptions acceptance;  // gates a RANSAC pose must pass to be returned as ok
   // Empty if valid, else "section.key: expected ...".
   std::string Validate() const;
 };
 
-// Strict YAML (config/localizer.yaml): sections map, projection, index, matching, ransac;
+// Strict YAML (config/localizer.yaml): sections map, projection, index, matching, ransac,
+// acceptance;
 // unknown keys and bad values throw InputError naming the file and key. Missing keys keep
 // their defaults.
 LocalizerOptions LoadLocalizerOptions(const std::string& path);
@@ -52,6 +55,12 @@ enum class LocalizationStatus : uint8_t {
   kTooFewMatches,        // fewer than matching.min_matches (after covisibility) or for P3P
   kRansacFailed,
   kTooFewInliers,
+  // Rejected by the acceptance gates (pose_acceptance.h), one status per gate:
+  kLowInlierRatio,        // inliers below acceptance.min_inlier_ratio x matches
+  kHighReprojectionError, // inlier reprojection error median / p90 above its gate
+  kClusteredInliers,      // inliers cover too few image cells or too small a hull
+  kUncertainPose,         // position / rotation standard deviation above its gate
+  kAmbiguousPose,         // a rival hypothesis with nearly as many inliers
   kNumStatuses
 };
 const char* LocalizationStatusName(LocalizationStatus status);
@@ -70,6 +79,8 @@ struct LocalizationResult {
   Matrix6d covariance_I = Matrix6d::Zero();
   std::vector<Match2D3D> matches;  // after the covisibility filter (the RANSAC input)
   std::vector<int> inliers;        // indices into `matches`
+  // What the acceptance gates measured (also for rejected poses, as far as the checks got).
+  PoseQuality quality;
   int num_raw_matches = 0;         // before the covisibility filter
   int ransac_iterations = 0;
   double rms_reprojection_px = 0.0;

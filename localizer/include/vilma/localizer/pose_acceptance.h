@@ -1,0 +1,121 @@
+// Acceptance of a RANSAC pose (docs/localizer.md, "Acceptance: a wrong pose is never
+// accepted"): a wrong pose accepted is worse than no pose, so a P3P winner is refined with all
+// its inliers until the inlier set is stable and then has to pass, in this order: an inlier
+// count and ratio scaled to the number of matches, the distribution of its inliers'
+// reprojection errors, their spread over the image, the pose covariance from the refined
+// solution's Jacobian, and a second-hypothesis test (the best rival RANSAC model among the
+// matches the winner does not explain must have clearly fewer inliers). Every rejection has
+// its own verdict, which the localizer turns into a status and counts.
+#pragma once
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "vilma/core/camera.h"
+#include "vilma/core/geometry.h"
+#include "vilma/localizer/pose_ransac.h"
+
+namespace vilma::localizer {
+
+struct PoseAcceptanceOptions {
+  // Inliers / matches (the RANSAC input) at least this: the required count grows with the
+  // matches, because more outliers let the best of many hypotheses collect more by chance.
+  double min_inlier_ratio = 0.05;
+  // Refine with all inliers, re-select them, refine again ... until the set repeats (at most
+  // this many rounds; each round is ransac.refine_iterations Gauss-Newton steps).
+  int refine_rounds = 4;
+  // Inlier reprojection errors after refinement, as fractions of ransac.threshold_px. A right
+  // pose has errors of the keypoint and map noise; agreements by chance spread uniformly over
+  // the disc (median 0.71, p90 0.95 of the threshold). The defaults reject only inlier sets
+  // worse than chance: real correct poses reach a median of 0.68 (KITTI, map depth noise), so
+  // this distribution separates little on real data (docs/localizer.md, "Acceptance").
+  double max_median_error_ratio = 0.7;
+  double max_p90_error_ratio = 0.95;
+  // Spread of the inliers in the image: the share of the grid_cols x grid_rows cells that hold
+  // an inlier, and the area of their convex hull over the image area.
+  int grid_cols = 8;
+  int grid_rows = 6;
+  double min_cell_fraction = 0.1;
+  double min_hull_fraction = 0.03;
+  // Pose covariance s^2 (J^T J)^-1 of the refined camera pose, s^2 = max(residual variance,
+  // ransac.keypoint_sigma_px^2); the standard deviation along the worst direction of the
+  // position [m] and of the rotation [deg] must stay below these (2 sigma within the
+  // 0.3 m / 2 deg of a correct localization by default).
+  double max_position_sigma_m = 0.15;
+  double max_rotation_sigma_deg = 0.67;
+  // Second hypothesis: RANSAC again on the matches whose error under the winner exceeds
+  // rival_exclusion_factor x threshold_px; its inliers over the winner's must not exceed
+  // max_rival_ratio. A P3P sample alone makes 3-4 inliers, so this also asks the winner for
+  // 1 / max_rival_ratio times what the outliers of this very query support by chance.
+  // Off: rival_check false.
+  bool rival_check = true;
+  double rival_exclusion_factor = 2.0;
+  double max_rival_ratio = 0.3;
+  int rival_max_iterations = 300;
+  std::string Validate() const;
+};
+
+enum class PoseVerdict : uint8_t {
+  kAccepted = 0,
+  kTooFewInliers,         // fewer than ransac.min_inliers after the final refinement
+  kLowInlierRatio,        // fewer than min_inlier_ratio x matches
+  kHighReprojectionError, // inlier error median or p90 above its gate
+  kClusteredInliers,      // cells covered or hull area below its gate
+  kUncertainPose,         // position or rotation sigma above its gate (or singular)
+  kAmbiguousPose,         // a rival hypothesis with too many inliers
+};
+const char* PoseVerdictName(PoseVerdict verdict);
+
+// What the gates measured (filled as far as the checks got; -1 = not measured).
+struct PoseQuality {
+  int matches = 0;
+  int inliers = 0;
+  int required_inliers = 0;         // max(ransac.min_inliers, ceil(min_inlier_ratio x matches))
+  double inlier_ratio = 0.0;
+  int refine_rounds = 0;            // rounds until the inlier set repeated
+  double median_error_px = -1.0;
+  double p90_error_px = -1.0;
+  double cell_fraction = -1.0;
+  double hull_fraction = -1.0;
+  double residual_sigma_px = -1.0;  // sqrt(sum e^2 / (2n - 6)) over the inliers
+  double position_sigma_m = -1.0;
+  double rotation_sigma_deg = -1.0;
+  int rival_inliers = -1;
+  double rival_ratio = -1.0;
+};
+
+struct AcceptedPose {
+  PoseVerdict verdict = PoseVerdict::kTooFewInliers;
+  Transformation T_G_C;
+  Matrix6d covariance_C = Matrix6d::Zero();  // right perturbation of T_G_C, [m^2, rad^2]
+  std::vector<int> inliers;
+  double rms_reprojection_px = 0.0;
+  PoseQuality quality;
+};
+
+// Refines `pose` (a RANSAC result with a model: status ok or too_few_inliers) with all its
+// inliers and runs the gates. keypoints[i] sees p_G[i].
+AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
+                        const std::vector<Eigen::Vector3d>& p_G, const PoseResult& pose,
+                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options);
+
+// Reprojection residual e = project(T_G_C^-1 p_G) - uv and its Jacobian d_e_d_xi with respect
+// to the right perturbation T_G_C Exp(xi), xi = [rho; phi] (geometry.h). False when p_G does
+// not project (behind the camera, outside the model's domain).
+bool ReprojectionResidual(const Camera& camera, const Transformation& T_G_C,
+                          const Eigen::Vector3d& p_G, const Eigen::Vector2d& uv,
+                          Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 6>* d_e_d_xi);
+
+// Covariance s^2 (J^T J)^-1 over `indices` with s^2 = max(sum |e|^2 / (2n - 6), sigma_px^2)
+// (residual variance, floored by the keypoint noise). False (and zero) if singular or n < 4.
+bool PoseCovariance(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
+                    const std::vector<Eigen::Vector3d>& p_G, const std::vector<int>& indices,
+                    const Transformation& T_G_C, double sigma_px, Matrix6d* covariance_C,
+                    double* residual_sigma_px);
+
+// Shares of the grid cells holding a point and of the image covered by the points' convex hull.
+void ImageSpread(const Camera& camera, const std::vector<Eigen::Vector2d>& points, int grid_cols,
+                 int grid_rows, double* cell_fraction, double* hull_fraction);
+
+}  // namespace vilma::localizer
