@@ -94,6 +94,11 @@ TEST_CASE("daemon counters: each localizer status counts into its own counter") 
   CHECK(LocStatusCounter(LocalizationStatus::kTooFewMatches) == kLocTooFewMatches);
   CHECK(LocStatusCounter(LocalizationStatus::kRansacFailed) == kLocRansacFailed);
   CHECK(LocStatusCounter(LocalizationStatus::kTooFewInliers) == kLocTooFewInliers);
+  CHECK(LocStatusCounter(LocalizationStatus::kLowInlierRatio) == kLocLowInlierRatio);
+  CHECK(LocStatusCounter(LocalizationStatus::kHighReprojectionError) == kLocHighReprojectionError);
+  CHECK(LocStatusCounter(LocalizationStatus::kClusteredInliers) == kLocClusteredInliers);
+  CHECK(LocStatusCounter(LocalizationStatus::kUncertainPose) == kLocUncertainPose);
+  CHECK(LocStatusCounter(LocalizationStatus::kAmbiguousPose) == kLocAmbiguousPose);
   // The counter's name carries the status's name (LocalizationStatusName: e.g. "ransac_failed").
   for (int i = 0; i < static_cast<int>(LocalizationStatus::kNumStatuses); ++i) {
     const auto status = static_cast<LocalizationStatus>(i);

@@ -91,6 +91,11 @@ namespace vilma::daemon {
   X(kLocTooFewMatches, "loc_too_few_matches")                                                                          \
   X(kLocRansacFailed, "loc_ransac_failed")                                                                             \
   X(kLocTooFewInliers, "loc_too_few_inliers")                                                                          \
+  X(kLocLowInlierRatio, "loc_low_inlier_ratio") /* acceptance gates, docs/localizer.md */                              \
+  X(kLocHighReprojectionError, "loc_high_reprojection_error")                                                          \
+  X(kLocClusteredInliers, "loc_clustered_inliers")                                                                     \
+  X(kLocUncertainPose, "loc_uncertain_pose")                                                                           \
+  X(kLocAmbiguousPose, "loc_ambiguous_pose")                                                                           \
   X(kLocRejectedInliers, "loc_rejected_inliers") /* ok, but fewer than localization.min_inliers */                     \
   X(kLocRejectedGravity, "loc_rejected_gravity") /* T_G_M not a yaw rotation */                                        \
   X(kLocRejectedJump, "loc_rejected_jump") /* gated against the estimate */                                            \
@@ -197,6 +202,11 @@ inline Counter LocStatusCounter(localizer::LocalizationStatus status) {
     case LocalizationStatus::kTooFewMatches: return kLocTooFewMatches;
     case LocalizationStatus::kRansacFailed: return kLocRansacFailed;
     case LocalizationStatus::kTooFewInliers: return kLocTooFewInliers;
+    case LocalizationStatus::kLowInlierRatio: return kLocLowInlierRatio;
+    case LocalizationStatus::kHighReprojectionError: return kLocHighReprojectionError;
+    case LocalizationStatus::kClusteredInliers: return kLocClusteredInliers;
+    case LocalizationStatus::kUncertainPose: return kLocUncertainPose;
+    case LocalizationStatus::kAmbiguousPose: return kLocAmbiguousPose;
     case LocalizationStatus::kNumStatuses: break;
   }
   return kLocOk;  // unreachable for a valid status; the switch above is exhaustive
