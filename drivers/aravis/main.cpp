@@ -41,14 +41,17 @@ int main(int argc, char** argv) {
     return kExitOk;
   }
   if (command_line.list) {
+    std::string error;
     try {
-      std::cout << vilma::aravis::ListCameras(options) << std::flush;
+      std::cout << vilma::aravis::ListCameras(options, &error) << std::flush;
     } catch (const std::exception& e) {
-      std::cerr << "vilma-aravis: " << e.what() << "\n";
-      arv_shutdown();
-      return kExitRuntime;
+      error = e.what();
     }
     arv_shutdown();
+    if (!error.empty()) {
+      std::cerr << "vilma-aravis: " << error << "\n";
+      return kExitRuntime;
+    }
     return kExitOk;
   }
 

@@ -59,14 +59,8 @@ class StreamCounterTotals {
 // Opens, configures and starts the camera; throws std::runtime_error.
 std::unique_ptr<AravisCamera> OpenCamera(const AravisOptions& options) {
   const std::vector<CameraInfo> cameras = DiscoverCameras(options.fake);
-  std::vector<CameraInfo> candidates;
-  for (const CameraInfo& c : cameras) {
-    // --fake: only the fake camera; otherwise never the fake (whose interface stays enabled
-    // in this process once it was).
-    if ((c.protocol == "Fake") == options.fake) candidates.push_back(c);
-  }
   CameraInfo info;
-  const std::string error = FindCamera(candidates, options.device, &info);
+  const std::string error = FindCamera(cameras, options.device, &info);
   if (!error.empty()) throw std::runtime_error(error);
   auto camera = std::make_unique<AravisCamera>(info, options);
   camera->Start();
@@ -75,7 +69,7 @@ std::unique_ptr<AravisCamera> OpenCamera(const AravisOptions& options) {
 
 }  // namespace
 
-std::string ListCameras(const AravisOptions& options) {
+std::string ListCameras(const AravisOptions& options, std::string* error) {
   const std::vector<CameraInfo> cameras = DiscoverCameras(options.fake);
   std::ostringstream out;
   out << cameras.size() << " camera(s)\n";
@@ -86,11 +80,8 @@ std::string ListCameras(const AravisOptions& options) {
     out << "\n";
   }
   CameraInfo info;
-  std::vector<CameraInfo> candidates;
-  for (const CameraInfo& c : cameras) {
-    if (options.fake || c.protocol != "Fake") candidates.push_back(c);
-  }
-  if (FindCamera(candidates, options.device, &info).empty()) out << DescribeCamera(info);
+  *error = FindCamera(cameras, options.device, &info);
+  if (error->empty()) out << DescribeCamera(info);
   return out.str();
 }
 
@@ -110,7 +101,7 @@ AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,
   stamp_options.use_device_clock = options.timestamp_source == "device";
   stamp_options.stamp_is_exposure_start = options.timestamp_event == "exposure_start";
   stamp_options.time_offset_ns = std::llround(options.time_offset_us * 1e3);
-  stamp_options.host_latency_ns = std::llround(options.host_latency_us * 1e3);
+  stamp_options.transport_latency_ns = std::llround(options.transport_latency_us * 1e3);
   FrameStamper stamper(stamp_options, options.clock_sync);
   ConvertOptions convert;
   convert.keep_16bit = options.keep_16bit;

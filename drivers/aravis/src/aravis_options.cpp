@@ -40,7 +40,7 @@ constexpr KeyInfo kKeys[] = {
     {"packet_resend", true},    {"packet_size", false},
     {"frame_timeout_s", false}, {"reconnect_interval_s", false},
     {"timestamp_source", false}, {"timestamp_event", false},
-    {"time_offset_us", false},  {"host_latency_us", false},
+    {"time_offset_us", false},  {"transport_latency_us", false},
     {"lcm_url", false},         {"channel", false},
     {"channel_suffix", false},  {"status_channel", false},
     {"camera_id", false},       {"status_period_s", false},
@@ -97,7 +97,7 @@ AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
   o.timestamp_source = root.GetOr("timestamp_source", o.timestamp_source);
   o.timestamp_event = root.GetOr("timestamp_event", o.timestamp_event);
   o.time_offset_us = root.GetOr("time_offset_us", o.time_offset_us);
-  o.host_latency_us = root.GetOr("host_latency_us", o.host_latency_us);
+  o.transport_latency_us = root.GetOr("transport_latency_us", o.transport_latency_us);
   if (root.Has("clock_sync")) o.clock_sync = ReadClockSync(root.MapChild("clock_sync"), o.clock_sync);
   o.lcm_url = root.GetOr("lcm_url", o.lcm_url);
   o.channel = root.GetOr("channel", o.channel);
@@ -162,7 +162,7 @@ std::string AravisOptions::Validate() const {
     return "timestamp_event: expected exposure_start or exposure_end, got '" + timestamp_event + "'";
   }
   if (!Finite(time_offset_us)) return "time_offset_us: expected a number";
-  VILMA_RETURN_IF_ERROR(ValidateNonNegative("host_latency_us", host_latency_us));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("transport_latency_us", transport_latency_us));
   {
     const std::string e = clock_sync.Validate();
     if (!e.empty()) return "clock_sync." + e;
@@ -219,7 +219,7 @@ std::string AravisOptionsToYaml(const AravisOptions& o) {
   kv("timestamp_source", o.timestamp_source);
   kv("timestamp_event", o.timestamp_event);
   kv("time_offset_us", o.time_offset_us);
-  kv("host_latency_us", o.host_latency_us);
+  kv("transport_latency_us", o.transport_latency_us);
   out << YAML::Key << "clock_sync" << YAML::Value << YAML::BeginMap;
   kv("window_s", o.clock_sync.window_s);
   kv("max_window_observations", o.clock_sync.max_window_observations);
@@ -310,14 +310,16 @@ the camera's timestamps mapped through a minimum-delay clock filter (docs/driver
 
 Modes:
   --list                  print the cameras found (id, vendor, model, serial, protocol) and
-                          the chosen camera's pixel formats and features, then exit
+                          the chosen camera's pixel formats and features, then exit (1 if
+                          no camera matches)
   --print-config          print the effective options as YAML and exit
   --help                  this text
 
 Options (each is also a key of the YAML file given with --config, '-' written '_'; flags
 override the file; booleans take no value and have a --no-... form):
   --config FILE           options file (config/aravis.yaml is the documented example)
-  --device ID             device id, serial number or user id (default: the first camera)
+  --device ID             device id, serial number, physical id (MAC) or IP address
+                          (default: the first camera)
   --fake                  Aravis's in-process fake camera (Fake_1): no hardware needed
   --pixel-format F        Mono8 (default), Mono10, Mono12, Mono16, BayerRG8, BayerGB8,
                           BayerGR8, BayerBG8, RGB8
@@ -341,11 +343,12 @@ override the file; booleans take no value and have a --no-... form):
                           waiting for hardware triggers)
   --reconnect-interval-s T   pause between reconnect attempts (default 1)
   --timestamp-source S    device (default: camera clock through the clock filter) or host
-                          (buffer arrival time minus --host-latency-us)
+                          (buffer arrival time only)
   --timestamp-event E     exposure_start (default) or exposure_end: what the camera's stamp
                           marks; utime = mid-exposure
   --time-offset-us T      constant added to utime [us] (default 0)
-  --host-latency-us T     timestamp-source host: exposure start to arrival [us] (default 0)
+  --transport-latency-us T   least time from the end of exposure to the buffer's arrival
+                          stamp (readout, first packet) [us] (default 0)
   --lcm-url URL           LCM provider (default $LCM_DEFAULT_URL, else
                           udpm://239.255.76.67:7667?ttl=0)
   --channel NAME          image channel (default CAM0)

@@ -36,19 +36,21 @@ FrameStamper::FrameStamper(const FrameStampOptions& options, const ClockSyncOpti
     : options_(options), sync_(sync_options) {}
 
 int64_t FrameStamper::Stamp(int64_t device_ns, int64_t host_arrival_ns, int64_t exposure_ns) {
-  int64_t exposure_start_ns;
+  // Host time at which the exposure ended, if the arrival had no variable delay.
+  const int64_t exposure_end_ns = host_arrival_ns - options_.transport_latency_ns;
+  int64_t mid_exposure_ns;
   if (options_.use_device_clock && device_ns != 0) {
-    // The pair (device stamp, arrival) gives the filter the device->host line; the device
-    // stamp's event precedes the arrival by exposure (if stamped at its start), readout and
-    // transfer: a delay >= 0 as the filter requires.
-    sync_.AddObservation(device_ns, host_arrival_ns);
+    const int64_t event_upper_bound_ns =
+        options_.stamp_is_exposure_start ? exposure_end_ns - exposure_ns : exposure_end_ns;
+    sync_.AddObservation(device_ns, event_upper_bound_ns);
     const int64_t event_ns = sync_.DeviceToHostNs(device_ns);
-    exposure_start_ns = options_.stamp_is_exposure_start ? event_ns : event_ns - exposure_ns;
+    mid_exposure_ns = options_.stamp_is_exposure_start ? event_ns + exposure_ns / 2
+                                                       : event_ns - exposure_ns / 2;
   } else {
     if (options_.use_device_clock) ++frames_without_device_stamp_;
-    exposure_start_ns = host_arrival_ns - options_.host_latency_ns;
+    mid_exposure_ns = exposure_end_ns - exposure_ns / 2;
   }
-  return exposure_start_ns + exposure_ns / 2 + options_.time_offset_ns;
+  return mid_exposure_ns + options_.time_offset_ns;
 }
 
 }  // namespace vilma::aravis

@@ -30,8 +30,9 @@ struct CameraInfo {
   std::string address;      // IP address (GigE)
 };
 
-// Cameras visible now (the Fake interface is enabled first when `include_fake`).
-std::vector<CameraInfo> DiscoverCameras(bool include_fake);
+// Cameras visible now: GigE Vision and USB3 Vision ones, or with `fake` only Aravis's
+// in-process fake camera (Fake_1).
+std::vector<CameraInfo> DiscoverCameras(bool fake);
 
 // The camera that `device` names (id, serial, physical id or address; "" = the first), or an
 // error listing what was found.

@@ -31,7 +31,9 @@ struct AravisRunSummary {
 AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,
                                  const std::atomic<bool>* stop, std::ostream* log);
 
-// --list: the cameras found and the chosen one's features.
-std::string ListCameras(const AravisOptions& options);
+// --list: the cameras found and the chosen one's features; `error` says why none was chosen
+// (no camera, or none matches options.device). Throws std::runtime_error if the chosen camera
+// cannot be opened.
+std::string ListCameras(const AravisOptions& options, std::string* error);
 
 }  // namespace vilma::aravis

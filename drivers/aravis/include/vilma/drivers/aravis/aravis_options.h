@@ -13,8 +13,8 @@ namespace vilma::aravis {
 
 struct AravisOptions {
   // --- device
-  // Camera to open: Aravis device id ("Basler-21234567", "Fake_1"), serial number, or user id;
-  // "" opens the first camera found.
+  // Camera to open: Aravis device id ("Basler-21234567", "Fake_1"), serial number, physical
+  // id (MAC address / USB path) or IP address; "" opens the first camera found.
   std::string device;
   // Use Aravis's in-process fake camera ("Fake" interface, device Fake_1): no hardware needed.
   bool fake = false;
@@ -66,15 +66,17 @@ struct AravisOptions {
 
   // --- time
   // "device": the camera's timestamps mapped onto the robot clock (ClockSync, with the host
-  // arrival time of each buffer); "host": the host arrival time minus host_latency_us.
+  // arrival time of each buffer); "host": the host arrival time only.
   std::string timestamp_source = "device";
   // What the camera's timestamp marks: "exposure_start" (GenICam SFNC cameras: the frame
   // trigger / start of exposure) or "exposure_end". utime is mid-exposure either way.
   std::string timestamp_event = "exposure_start";
   // Constant added to every utime [us] (a latch latency known from the camera's manual).
   double time_offset_us = 0.0;
-  // timestamp_source host: the time from exposure start to buffer arrival [us].
-  double host_latency_us = 0.0;
+  // Least time from the end of exposure to the buffer's host arrival stamp (readout and the
+  // first packet's transfer) [us]. One-way arrival times cannot reveal this constant; it is
+  // subtracted before the clock filter (device mode) or from the arrival (host mode).
+  double transport_latency_us = 0.0;
   ClockSyncOptions clock_sync;
 
   // --- LCM

@@ -39,16 +39,23 @@ class FrameIdTracker {
 };
 
 struct FrameStampOptions {
-  bool use_device_clock = true;   // false: host arrival time - host_latency_ns
+  bool use_device_clock = true;         // false: from the host arrival time only
   bool stamp_is_exposure_start = true;  // false: the device stamp marks the end of exposure
-  int64_t time_offset_ns = 0;     // added to every result
-  int64_t host_latency_ns = 0;    // host mode: exposure start -> arrival
+  int64_t time_offset_ns = 0;           // added to every result
+  // Least time from the end of exposure to the buffer's arrival stamp (readout + transfer of
+  // the first packet) [ns]: the constant part of the delay that arrival times cannot reveal.
+  int64_t transport_latency_ns = 0;
 };
 
 // Mid-exposure time on the host clock of each frame, from the camera's stamp and the buffer's
-// host arrival time. In device mode the stamps go through a ClockSync (minimum-delay filter:
-// the arrival is the exposure event plus a transport delay >= 0); a camera that sends no stamp
-// (0) falls back to host mode for that frame.
+// host arrival time.
+//
+// Model: a frame's first packet arrives (host clock) at exposure end + transport latency +
+// a variable delay >= 0 (queuing, interrupt moderation, scheduling). In device mode the pairs
+// (device stamp, arrival - transport latency - [exposure, if the stamp marks its start]) go
+// through a ClockSync (minimum-delay filter): the least delayed frames pin the device->host
+// line, the jittered ones do not move it. A camera that sends no stamp (0) falls back to host
+// mode for that frame: exposure end = arrival - transport latency.
 class FrameStamper {
  public:
   FrameStamper(const FrameStampOptions& options, const ClockSyncOptions& sync_options);
