@@ -119,7 +119,7 @@ std::string UsbImuOptions::Validate() const {
 }
 
 ClockSyncOptions ReadClockSyncOptions(const YamlNode& node) {
-  if (!node.IsMap()) node.Fail("", "a map of clock sync options");
+  if (!node.IsMap()) node.Fail("", "expected a map of clock sync options");
   ClockSyncOptions o;
   o.window_s = node.GetOr("window_s", o.window_s);
   o.max_window_observations = node.GetOr("max_window_observations", o.max_window_observations);
@@ -137,20 +137,21 @@ ClockSyncOptions ReadClockSyncOptions(const YamlNode& node) {
 UsbImuOptions ReadUsbImuOptions(const YamlNode& node) {
   UsbImuOptions o;
   if (node.raw().IsNull()) return o;  // an empty file: all defaults
-  if (!node.IsMap()) node.Fail("", "a map of vilma-usb-imu options");
+  if (!node.IsMap()) node.Fail("", "expected a map of vilma-usb-imu options");
   o.transport = node.GetOr("transport", o.transport);
   o.serial_device = node.GetOr("serial_device", o.serial_device);
   o.baud = node.GetOr("baud", o.baud);
   o.usb_vendor_id = node.GetOr("usb_vendor_id", o.usb_vendor_id);
   if (node.Has("usb_product_ids")) {
-    const YamlNode ids = node.Child("usb_product_ids");
-    if (!ids.IsSequence()) node.Fail("usb_product_ids", "a list of 16-bit ids like [0x3065]");
+    const YAML::Node ids = node.raw()["usb_product_ids"];
+    const char* expected = "expected a list of 16-bit ids like [0x3065, 0x3d65]";
+    if (!ids.IsSequence()) node.Fail("usb_product_ids", expected);
     o.usb_product_ids.clear();
-    for (const YAML::Node& id : ids.raw()) {
+    for (const YAML::Node& id : ids) {
       try {
         o.usb_product_ids.push_back(id.as<int>());
       } catch (const YAML::Exception&) {
-        node.Fail("usb_product_ids", "a list of 16-bit ids like [0x3065]");
+        node.Fail("usb_product_ids", expected);
       }
     }
   }
