@@ -19,8 +19,8 @@ std::vector<ControlInfo> EnumerateControls(V4l2Io* io, int fd) {
   v4l2_queryctrl query{};
   query.id = V4L2_CTRL_FLAG_NEXT_CTRL;
   for (int guard = 0; guard < 1024 && io->Ioctl(fd, VIDIOC_QUERYCTRL, &query) == 0; ++guard) {
-    const bool skip = (query.flags & V4L2_CTRL_FLAG_DISABLED) != 0 ||
-                      query.type == V4L2_CTRL_TYPE_CTRL_CLASS;
+    const bool skip =
+        (query.flags & V4L2_CTRL_FLAG_DISABLED) != 0 || query.type == V4L2_CTRL_TYPE_CTRL_CLASS;
     if (!skip) {
       ControlInfo info;
       info.query = query;
@@ -191,12 +191,23 @@ std::string DescribeControls(V4l2Io* io, int fd) {
     const v4l2_queryctrl& q = c.query;
     const char* type = "int";
     switch (q.type) {
-      case V4L2_CTRL_TYPE_BOOLEAN: type = "bool"; break;
-      case V4L2_CTRL_TYPE_MENU: type = "menu"; break;
-      case V4L2_CTRL_TYPE_INTEGER_MENU: type = "intmenu"; break;
-      case V4L2_CTRL_TYPE_BUTTON: type = "button"; break;
-      case V4L2_CTRL_TYPE_INTEGER64: type = "int64"; break;
-      default: break;
+      case V4L2_CTRL_TYPE_BOOLEAN:
+        type = "bool";
+        break;
+      case V4L2_CTRL_TYPE_MENU:
+        type = "menu";
+        break;
+      case V4L2_CTRL_TYPE_INTEGER_MENU:
+        type = "intmenu";
+        break;
+      case V4L2_CTRL_TYPE_BUTTON:
+        type = "button";
+        break;
+      case V4L2_CTRL_TYPE_INTEGER64:
+        type = "int64";
+        break;
+      default:
+        break;
     }
     out << "    " << c.key << " (" << type << ") " << RangeText(q) << " default "
         << q.default_value;

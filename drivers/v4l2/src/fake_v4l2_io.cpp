@@ -180,8 +180,19 @@ struct FakeV4l2Io::State {
         pix->bytesperline = pix->width;
     }
     pix->sizeimage = format->fourcc == V4L2_PIX_FMT_MJPEG ? pix->width * pix->height
-                                                           : pix->bytesperline * pix->height;
+                                                          : pix->bytesperline * pix->height;
     pix->colorspace = V4L2_COLORSPACE_SRGB;
+  }
+
+  // The exposure time now: the manual value, or the control's value under auto exposure
+  // (the fake's auto exposure does not adapt); at most one frame interval.
+  int64_t ExposureNs() const {
+    const FakeControl* exposure = nullptr;
+    for (const FakeControl& c : controls) {
+      if (c.query.id == V4L2_CID_EXPOSURE_ABSOLUTE) exposure = &c;
+    }
+    const int64_t ns = exposure == nullptr ? 0 : int64_t{exposure->value} * 100000;
+    return std::min(ns, IntervalNs());
   }
 
   int64_t IntervalNs() const {
@@ -210,8 +221,8 @@ struct FakeV4l2Io::State {
   }
 
   void FillBuffer(Buffer* buffer, int64_t sequence) {
-    const cv::Mat pattern = FakeFramePattern(sequence, static_cast<int>(format.width),
-                                             static_cast<int>(format.height));
+    const cv::Mat pattern =
+        FakeFramePattern(sequence, static_cast<int>(format.width), static_cast<int>(format.height));
     std::size_t used = format.sizeimage;
     uint8_t* out = buffer->memory.data();
     const int w = static_cast<int>(format.width);
@@ -248,8 +259,13 @@ struct FakeV4l2Io::State {
     if (!streaming) return;
     const int64_t interval = IntervalNs();
     while (true) {
-      const int64_t stamp_ns = stream_start_ns + next_sequence * interval;
-      if (stamp_ns + delivery_delay_ns > now_ns) return;
+      // Frame k is complete (end of frame) at ready_ns; its exposure started `exposure` before
+      // (the fake reads out instantly), which is what a start-of-exposure stamp says.
+      const int64_t ready_ns = stream_start_ns + next_sequence * interval;
+      if (ready_ns + delivery_delay_ns > now_ns) return;
+      const bool soe =
+          (spec.timestamp_flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
+      const int64_t stamp_ns = soe ? ready_ns - ExposureNs() : ready_ns;
       const int64_t sequence = next_sequence++;
       ++stats.frames_due;
       if (unplug_after_frames >= 0 && stats.frames_due >= unplug_after_frames) {
@@ -309,12 +325,13 @@ FakeV4l2Io::FakeV4l2Io(FakeCameraSpec spec) : state_(std::make_unique<State>()) 
   s.default_format = s.format;
   s.interval_denominator = static_cast<uint32_t>(s.spec.formats.front().fps.front());
   // The controls of a typical UVC camera, with its defaults (aperture-priority auto exposure).
-  FakeControl exposure_auto = MakeControl(V4L2_CID_EXPOSURE_AUTO, V4L2_CTRL_TYPE_MENU,
-                                          "Auto Exposure", 0, 3, 1, V4L2_EXPOSURE_APERTURE_PRIORITY);
+  FakeControl exposure_auto =
+      MakeControl(V4L2_CID_EXPOSURE_AUTO, V4L2_CTRL_TYPE_MENU, "Auto Exposure", 0, 3, 1,
+                  V4L2_EXPOSURE_APERTURE_PRIORITY);
   exposure_auto.menu = {{V4L2_EXPOSURE_MANUAL, "Manual Mode"},
                         {V4L2_EXPOSURE_APERTURE_PRIORITY, "Aperture Priority Mode"}};
-  s.controls.push_back(MakeControl(V4L2_CID_BRIGHTNESS, V4L2_CTRL_TYPE_INTEGER, "Brightness",
-                                   -64, 64, 1, 0));
+  s.controls.push_back(
+      MakeControl(V4L2_CID_BRIGHTNESS, V4L2_CTRL_TYPE_INTEGER, "Brightness", -64, 64, 1, 0));
   s.controls.push_back(MakeControl(V4L2_CID_GAIN, V4L2_CTRL_TYPE_INTEGER, "Gain", 0, 100, 1, 32));
   s.controls.push_back(exposure_auto);
   s.controls.push_back(MakeControl(V4L2_CID_EXPOSURE_ABSOLUTE, V4L2_CTRL_TYPE_INTEGER,
@@ -487,9 +504,9 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
         format = f->fmt.pix;
         // The frame interval is kept if the new format offers it, else the first one is used.
         const FakeFormat* ff = FindFormat(format.pixelformat);
-        const bool kept = interval_numerator == 1 &&
-                          std::count(ff->fps.begin(), ff->fps.end(),
-                                     static_cast<int>(interval_denominator)) > 0;
+        const bool kept =
+            interval_numerator == 1 &&
+            std::count(ff->fps.begin(), ff->fps.end(), static_cast<int>(interval_denominator)) > 0;
         if (!kept) {
           interval_numerator = 1;
           interval_denominator = static_cast<uint32_t>(ff->fps.front());
@@ -504,8 +521,9 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       if (request == VIDIOC_S_PARM) {
         if (streaming) return -EBUSY;
         const v4l2_fract wanted = p->parm.capture.timeperframe;
-        const double wanted_fps =
-            wanted.numerator == 0 ? 1e9 : static_cast<double>(wanted.denominator) / wanted.numerator;
+        const double wanted_fps = wanted.numerator == 0
+                                      ? 1e9
+                                      : static_cast<double>(wanted.denominator) / wanted.numerator;
         const FakeFormat* ff = FindFormat(format.pixelformat);
         int best = ff->fps.front();
         for (int fps : ff->fps) {
@@ -535,7 +553,8 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
         owner_fd = -1;
         return 0;
       }
-      const uint32_t count = std::clamp<uint32_t>(r->count, 2, static_cast<uint32_t>(spec.max_buffers));
+      const uint32_t count =
+          std::clamp<uint32_t>(r->count, 2, static_cast<uint32_t>(spec.max_buffers));
       buffers.resize(count);
       for (uint32_t i = 0; i < count; ++i) {
         Buffer& b = buffers[i];

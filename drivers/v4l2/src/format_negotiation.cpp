@@ -78,9 +78,9 @@ std::string DescribeFrameRates(V4l2Io* io, int fd, uint32_t fourcc, int width, i
     if (io->Ioctl(fd, VIDIOC_ENUM_FRAMEINTERVALS, &interval) != 0) break;
     if (interval.type == V4L2_FRMIVAL_TYPE_DISCRETE) {
       if (interval.discrete.numerator == 0) continue;
-      text += (text.empty() ? "" : ", ") +
-              FpsText(static_cast<double>(interval.discrete.denominator) /
-                      interval.discrete.numerator);
+      text +=
+          (text.empty() ? "" : ", ") +
+          FpsText(static_cast<double>(interval.discrete.denominator) / interval.discrete.numerator);
     } else {
       const v4l2_frmival_stepwise& s = interval.stepwise;
       // The longest interval is the lowest rate.
@@ -139,9 +139,10 @@ std::string NegotiateFormat(V4l2Io* io, int fd, const FormatRequest& request,
   result->bytes_per_line = chosen == V4L2_PIX_FMT_MJPEG ? 0 : static_cast<int>(pix.bytesperline);
   result->size_image = pix.sizeimage;
   if (result->width != wanted_width || result->height != wanted_height) {
-    const std::string text = "asked for " + Size(wanted_width, wanted_height) + ", the device set " +
-                             Size(result->width, result->height) + " (" + FourccName(chosen) +
-                             " sizes: " + DescribeFrameSizes(io, fd, chosen) + ")";
+    const std::string text = "asked for " + Size(wanted_width, wanted_height) +
+                             ", the device set " + Size(result->width, result->height) + " (" +
+                             FourccName(chosen) + " sizes: " + DescribeFrameSizes(io, fd, chosen) +
+                             ")";
     if (request.require_size) return text;
     result->notes.push_back(text);
   }
@@ -170,11 +171,10 @@ std::string NegotiateFormat(V4l2Io* io, int fd, const FormatRequest& request,
     result->fps = static_cast<double>(interval.denominator) / interval.numerator;
   }
   if (request.fps > 0.0 && settable && std::abs(result->fps - request.fps) > 0.01 * request.fps) {
-    const std::string text = "asked for " + FpsText(request.fps) + " fps, the device set " +
-                             FpsText(result->fps) + " fps (" + FourccName(chosen) + " " +
-                             Size(result->width, result->height) + ": " +
-                             DescribeFrameRates(io, fd, chosen, result->width, result->height) +
-                             ")";
+    const std::string text =
+        "asked for " + FpsText(request.fps) + " fps, the device set " + FpsText(result->fps) +
+        " fps (" + FourccName(chosen) + " " + Size(result->width, result->height) + ": " +
+        DescribeFrameRates(io, fd, chosen, result->width, result->height) + ")";
     if (request.require_fps) return text;
     result->notes.push_back(text);
   }

@@ -11,8 +11,8 @@ std::string TimestampOptions::Validate() const {
   if (!(std::isfinite(readout_us) && readout_us >= 0.0 && readout_us <= 1e6)) {
     return "readout_us: expected 0 .. 1000000 [us]";
   }
-  if (!(std::isfinite(offset_refresh_s) && offset_refresh_s >= 0.01 && offset_refresh_s <= 3600)) {
-    return "offset_refresh_s: expected 0.01 .. 3600 [s]";
+  if (!(std::isfinite(offset_refresh_s) && offset_refresh_s >= 0.0 && offset_refresh_s <= 3600)) {
+    return "offset_refresh_s: expected 0 (every frame) .. 3600 [s]";
   }
   if (!(std::isfinite(realtime_step_ms) && realtime_step_ms > 0.0)) {
     return "realtime_step_ms: expected > 0 [ms]";
@@ -27,8 +27,8 @@ FrameTimestamper::FrameTimestamper(const TimestampOptions& options,
 StampedFrame FrameTimestamper::Stamp(uint32_t buffer_flags, int64_t buffer_ns,
                                      int64_t dequeue_monotonic_ns, int64_t exposure_ns) {
   StampedFrame frame;
-  const bool monotonic = (buffer_flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) ==
-                         V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC;
+  const bool monotonic =
+      (buffer_flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC;
   const bool plausible = buffer_ns > 0 && buffer_ns <= dequeue_monotonic_ns;
   const int64_t readout_ns = static_cast<int64_t>(std::llround(options_.readout_us * 1e3));
   int64_t stamp_ns = buffer_ns;
@@ -42,8 +42,8 @@ StampedFrame FrameTimestamper::Stamp(uint32_t buffer_flags, int64_t buffer_ns,
   }
   frame.mid_monotonic_ns = stamp_ns;
   if (options_.mid_exposure || frame.fallback) {
-    frame.mid_monotonic_ns = start_of_exposure ? stamp_ns + exposure_ns / 2
-                                               : stamp_ns - readout_ns - exposure_ns / 2;
+    frame.mid_monotonic_ns =
+        start_of_exposure ? stamp_ns + exposure_ns / 2 : stamp_ns - readout_ns - exposure_ns / 2;
   }
 
   // REALTIME - MONOTONIC: measured at the first frame, then every offset_refresh_s.

@@ -29,8 +29,8 @@ std::string SizeText(int width, int height) {
 }  // namespace
 
 bool IsSupportedFourcc(uint32_t fourcc) {
-  return fourcc == V4L2_PIX_FMT_GREY || fourcc == V4L2_PIX_FMT_Y16 ||
-         fourcc == V4L2_PIX_FMT_YUYV || fourcc == V4L2_PIX_FMT_MJPEG;
+  return fourcc == V4L2_PIX_FMT_GREY || fourcc == V4L2_PIX_FMT_Y16 || fourcc == V4L2_PIX_FMT_YUYV ||
+         fourcc == V4L2_PIX_FMT_MJPEG;
 }
 
 bool IsSixteenBitFourcc(uint32_t fourcc) { return fourcc == V4L2_PIX_FMT_Y16; }
@@ -51,7 +51,8 @@ std::string ConvertToGray(const uint8_t* data, std::size_t bytes_used, const Fra
     } catch (const cv::Exception&) {
       decoded.release();
     }
-    if (decoded.empty()) return "MJPG frame of " + std::to_string(bytes_used) + " bytes does not decode";
+    if (decoded.empty())
+      return "MJPG frame of " + std::to_string(bytes_used) + " bytes does not decode";
     if (decoded.cols != layout.width || decoded.rows != layout.height) {
       return "MJPG frame decodes to " + SizeText(decoded.cols, decoded.rows) + ", expected " +
              SizeText(layout.width, layout.height);
@@ -63,8 +64,8 @@ std::string ConvertToGray(const uint8_t* data, std::size_t bytes_used, const Fra
   const int min_stride = MinBytesPerLine(layout.fourcc, layout.width);
   const int stride = layout.bytes_per_line > 0 ? layout.bytes_per_line : min_stride;
   if (stride < min_stride) {
-    return "bytesperline " + std::to_string(stride) + " < " + std::to_string(min_stride) +
-           " for " + FourccName(layout.fourcc) + " " + SizeText(layout.width, layout.height);
+    return "bytesperline " + std::to_string(stride) + " < " + std::to_string(min_stride) + " for " +
+           FourccName(layout.fourcc) + " " + SizeText(layout.width, layout.height);
   }
   // The last row needs only its pixels, not its padding.
   const std::size_t needed =

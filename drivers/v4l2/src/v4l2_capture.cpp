@@ -6,6 +6,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <sstream>
 #include <thread>
 
 #include "vilma/core/error.h"
@@ -188,10 +189,11 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
   status_->SetMetric("width", format_.width);
   status_->SetMetric("height", format_.height);
   status_->SetMetric("exposure_us", static_cast<double>(exposure_us_));
-  Log("streaming " + node_ + ": " + FourccName(format_.fourcc) + " " +
-      std::to_string(format_.width) + "x" + std::to_string(format_.height) + " at " +
-      std::to_string(format_.fps) + " fps, " + std::to_string(buffers_.size()) + " buffers, " +
-      (fixed_exposure_ ? "exposure " + std::to_string(exposure_us_) + " us" : "auto exposure"));
+  std::ostringstream text;
+  text << "streaming " << node_ << ": " << FourccName(format_.fourcc) << " " << format_.width << "x"
+       << format_.height << " at " << format_.fps << " fps, " << buffers_.size() << " buffers, "
+       << (fixed_exposure_ ? "exposure " + std::to_string(exposure_us_) + " us" : "auto exposure");
+  Log(text.str());
   return "";
 }
 
@@ -225,8 +227,7 @@ void V4l2Capture::Lose(Outcome outcome, const std::string& why) {
 }
 
 void V4l2Capture::HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint32_t flags,
-                               int64_t buffer_ns, int64_t sequence,
-                               const FrameCallback& on_frame) {
+                               int64_t buffer_ns, int64_t sequence, const FrameCallback& on_frame) {
   const int64_t dequeue_ns = io_->MonotonicNowNs();
   last_frame_ns_ = dequeue_ns;
   status_->Increment(kCounterFramesDequeued);
@@ -253,8 +254,8 @@ void V4l2Capture::HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint
     return;
   }
 
-  if (!fixed_exposure_ && dequeue_ns - exposure_read_at_ns_ >=
-                              SecondsToNsRounded(options_.exposure_readback_s)) {
+  if (!fixed_exposure_ &&
+      dequeue_ns - exposure_read_at_ns_ >= SecondsToNsRounded(options_.exposure_readback_s)) {
     exposure_us_ = ReadExposureUs(io_, fd_);
     exposure_read_at_ns_ = dequeue_ns;
     status_->SetMetric("exposure_us", static_cast<double>(exposure_us_));
@@ -274,7 +275,9 @@ void V4l2Capture::HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint
 }
 
 V4l2Capture::Outcome V4l2Capture::DrainBuffers(const FrameCallback& on_frame) {
-  while (true) {
+  // At most one ring's worth per call: a consumer slower than the camera would otherwise
+  // always find another buffer done and never get back to the stop and time-out checks.
+  for (std::size_t n = 0; n < buffers_.size(); ++n) {
     v4l2_buffer buffer{};
     buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
     buffer.memory = V4L2_MEMORY_MMAP;
@@ -285,9 +288,8 @@ V4l2Capture::Outcome V4l2Capture::DrainBuffers(const FrameCallback& on_frame) {
     }
     if (buffer.index >= buffers_.size()) return Outcome::kFailed;
     const MappedBuffer& mapped = buffers_[buffer.index];
-    const int64_t buffer_ns =
-        static_cast<int64_t>(buffer.timestamp.tv_sec) * kNsPerS +
-        static_cast<int64_t>(buffer.timestamp.tv_usec) * 1000;
+    const int64_t buffer_ns = static_cast<int64_t>(buffer.timestamp.tv_sec) * kNsPerS +
+                              static_cast<int64_t>(buffer.timestamp.tv_usec) * 1000;
     const std::size_t used = std::min<std::size_t>(buffer.bytesused, mapped.length);
     HandleBuffer(static_cast<const uint8_t*>(mapped.address), used, buffer.flags, buffer_ns,
                  buffer.sequence, on_frame);
@@ -295,6 +297,7 @@ V4l2Capture::Outcome V4l2Capture::DrainBuffers(const FrameCallback& on_frame) {
     result = io_->Ioctl(fd_, VIDIOC_QBUF, &buffer);
     if (result != 0) return result == -ENODEV ? Outcome::kLost : Outcome::kFailed;
   }
+  return Outcome::kOk;
 }
 
 void V4l2Capture::Run(const std::atomic<bool>* stop, double seconds,
@@ -303,7 +306,9 @@ void V4l2Capture::Run(const std::atomic<bool>* stop, double seconds,
   const int64_t end_ns = seconds > 0.0 ? start_ns + SecondsToNsRounded(seconds) : INT64_MAX;
   const int64_t frame_timeout_ns = SecondsToNsRounded(options_.frame_timeout_s);
   int64_t next_attempt_ns = 0;
-  auto stopped = [&] { return (stop != nullptr && stop->load()) || io_->MonotonicNowNs() >= end_ns; };
+  auto stopped = [&] {
+    return (stop != nullptr && stop->load()) || io_->MonotonicNowNs() >= end_ns;
+  };
 
   while (!stopped()) {
     const int64_t now_ns = io_->MonotonicNowNs();
@@ -314,7 +319,8 @@ void V4l2Capture::Run(const std::atomic<bool>* stop, double seconds,
         next_attempt_ns = now_ns;
       }
       if (now_ns < next_attempt_ns) {
-        const int64_t wait_ns = std::min<int64_t>({next_attempt_ns - now_ns, 50000000, end_ns - now_ns});
+        const int64_t wait_ns =
+            std::min<int64_t>({next_attempt_ns - now_ns, 50000000, end_ns - now_ns});
         std::this_thread::sleep_for(std::chrono::nanoseconds(std::max<int64_t>(wait_ns, 0)));
         continue;
       }
@@ -349,8 +355,8 @@ void V4l2Capture::Run(const std::atomic<bool>* stop, double seconds,
       v4l2_capability cap{};
       const int result = io_->Ioctl(fd_, VIDIOC_QUERYCAP, &cap);
       const Outcome outcome = result != 0 ? Outcome::kLost : Outcome::kFailed;
-      Lose(outcome, node_ + (outcome == Outcome::kLost ? ": device lost (unplugged?)"
-                                                      : ": stream error"));
+      Lose(outcome,
+           node_ + (outcome == Outcome::kLost ? ": device lost (unplugged?)" : ": stream error"));
       next_attempt_ns = io_->MonotonicNowNs() + SecondsToNsRounded(options_.reconnect_initial_s);
       continue;
     }
@@ -364,8 +370,8 @@ void V4l2Capture::Run(const std::atomic<bool>* stop, double seconds,
       continue;
     }
     if (io_->MonotonicNowNs() - last_frame_ns_ > frame_timeout_ns) {
-      Lose(Outcome::kFailed, node_ + ": no frame for " + std::to_string(options_.frame_timeout_s) +
-                                 " s (stalled)");
+      Lose(Outcome::kFailed,
+           node_ + ": no frame for " + std::to_string(options_.frame_timeout_s) + " s (stalled)");
       next_attempt_ns = io_->MonotonicNowNs() + SecondsToNsRounded(options_.reconnect_initial_s);
     }
   }

@@ -105,13 +105,12 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
     return kExitInputError;
   }
   DriverStatus status(kProgram);
-  StatusPublisher status_publisher(&status, &lcm, options.StatusChannel(),
-                                   options.status_period_s);
+  StatusPublisher status_publisher(&status, &lcm, options.StatusChannel(), options.status_period_s);
   auto log = [](const std::string& message) {
     std::cerr << kProgram << ": " << message << std::endl;
   };
-  V4l2Capture capture(io.get(), options.capture, &status,
-                      [] { return MeasureRealtimeMinusMonotonicNs(); }, log);
+  V4l2Capture capture(
+      io.get(), options.capture, &status, [] { return MeasureRealtimeMinusMonotonicNs(); }, log);
   try {
     capture.Open();
   } catch (const InputError& e) {

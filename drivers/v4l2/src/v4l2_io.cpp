@@ -37,8 +37,8 @@ int SystemV4l2Io::Ioctl(int fd, unsigned long request, void* arg) {
 }
 
 void* SystemV4l2Io::Map(int fd, std::size_t length, int64_t offset) {
-  void* address = ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED, fd,
-                         static_cast<off_t>(offset));
+  void* address =
+      ::mmap(nullptr, length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, static_cast<off_t>(offset));
   return address == MAP_FAILED ? nullptr : address;
 }
 

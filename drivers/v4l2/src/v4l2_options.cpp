@@ -79,7 +79,8 @@ std::string V4l2DriverOptions::Validate() const {
   if (!channel_error.empty()) return "channel: " + channel_error;
   const std::string status_error = ValidateChannelName(StatusChannel());
   if (!status_error.empty()) return "status_channel: " + status_error;
-  if (StatusChannel() == DataChannel()) return "status_channel: expected another channel than channel";
+  if (StatusChannel() == DataChannel())
+    return "status_channel: expected another channel than channel";
   if (camera_id < 0) return "camera_id: expected >= 0";
   if (!(std::isfinite(status_period_s) && status_period_s >= 0.05 && status_period_s <= 60.0)) {
     return "status_period_s: expected 0.05 .. 60 [s]";
@@ -279,7 +280,8 @@ V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, boo
   auto number = [](ArgCursor& arg) {
     const std::string text = arg.Value();
     double value = 0.0;
-    if (!ParseNumber(text, &value)) throw UsageError(arg.name() + ": '" + text + "' is not a number");
+    if (!ParseNumber(text, &value))
+      throw UsageError(arg.name() + ": '" + text + "' is not a number");
     return value;
   };
   auto integer = [](ArgCursor& arg) {

@@ -23,8 +23,8 @@
 namespace vilma::v4l2 {
 
 struct ControlOptions {
-  double exposure_us = 0.0;  // > 0: fixed exposure [us]; 0: auto
-  int gain = -1;             // >= 0: fixed gain [camera units]; -1: auto
+  double exposure_us = 0.0;                 // > 0: fixed exposure [us]; 0: auto
+  int gain = -1;                            // >= 0: fixed gain [camera units]; -1: auto
   std::map<std::string, int64_t> controls;  // further controls by v4l2-ctl name
 
   // "" or "field: expectation".
@@ -42,8 +42,7 @@ std::string ControlKey(const std::string& name);
 
 // Applies `options` on the open descriptor. Returns "" or an error naming the control, the
 // value and the range the camera allows.
-std::string ApplyControls(V4l2Io* io, int fd, const ControlOptions& options,
-                          ControlReport* report);
+std::string ApplyControls(V4l2Io* io, int fd, const ControlOptions& options, ControlReport* report);
 
 // The current exposure [us] from V4L2_CID_EXPOSURE_ABSOLUTE (also in auto mode, where UVC
 // cameras report what the auto exposure chose); 0 if the camera has no such control.

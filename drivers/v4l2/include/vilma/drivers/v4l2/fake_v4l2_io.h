@@ -14,10 +14,11 @@
 //    auto_exposure is manual, as UVC cameras do;
 //  - REQBUFS (MMAP only) / QUERYBUF / mmap / QBUF / DQBUF (EAGAIN when nothing is ready,
 //    O_NONBLOCK) / STREAMON / STREAMOFF (returns every buffer to the application);
-//  - frames are due every frame interval on CLOCK_MONOTONIC; a frame that finds no queued
+//  - frames are complete every frame interval on CLOCK_MONOTONIC; a frame that finds no queued
 //    buffer is lost but still consumes a sequence number (so the application sees the gap);
-//    buffer stamps are the due time with V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC and
-//    V4L2_BUF_FLAG_TSTAMP_SRC_SOE unless the spec says otherwise;
+//    buffers are stamped V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC | V4L2_BUF_FLAG_TSTAMP_SRC_SOE with
+//    the start of exposure (the frame's completion minus the exposure control's time), or
+//    with the completion time when the spec's flags say TSTAMP_SRC_EOF;
 //  - unplugging: every call on an open descriptor fails with ENODEV, poll reports an error,
 //    the node disappears (open: ENOENT) until the camera is plugged in again, possibly under
 //    another /dev/videoN while its /dev/v4l/by-id link keeps its name.

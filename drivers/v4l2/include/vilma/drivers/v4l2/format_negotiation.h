@@ -28,9 +28,9 @@ struct NegotiatedFormat {
   uint32_t fourcc = 0;
   int width = 0;
   int height = 0;
-  int bytes_per_line = 0;   // 0 for MJPG
-  uint32_t size_image = 0;  // buffer size the driver needs [bytes]
-  double fps = 0.0;         // 0 when the device does not report a frame interval
+  int bytes_per_line = 0;          // 0 for MJPG
+  uint32_t size_image = 0;         // buffer size the driver needs [bytes]
+  double fps = 0.0;                // 0 when the device does not report a frame interval
   std::vector<std::string> notes;  // what differs from the request, for the log
 };
 

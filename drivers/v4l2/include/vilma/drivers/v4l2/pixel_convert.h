@@ -20,10 +20,10 @@
 namespace vilma::v4l2 {
 
 struct FrameLayout {
-  uint32_t fourcc = 0;        // V4L2_PIX_FMT_*
-  int width = 0;              // [px]
-  int height = 0;             // [px]
-  int bytes_per_line = 0;     // [bytes]; 0 for compressed formats
+  uint32_t fourcc = 0;     // V4L2_PIX_FMT_*
+  int width = 0;           // [px]
+  int height = 0;          // [px]
+  int bytes_per_line = 0;  // [bytes]; 0 for compressed formats
 };
 
 // Whether the driver can convert `fourcc` (GREY, Y16, YUYV, MJPG).

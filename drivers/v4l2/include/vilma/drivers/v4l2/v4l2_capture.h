@@ -60,9 +60,9 @@ struct CaptureOptions {
 };
 
 struct CapturedFrame {
-  const cv::Mat* image = nullptr;  // CV_8UC1, or CV_16UC1 (keep_16_bit and Y16)
-  int64_t sequence = 0;            // the kernel's buffer sequence number
-  int64_t robot_ns = 0;            // mid-exposure on CLOCK_REALTIME [ns] (utime * 1000)
+  const cv::Mat* image = nullptr;    // CV_8UC1, or CV_16UC1 (keep_16_bit and Y16)
+  int64_t sequence = 0;              // the kernel's buffer sequence number
+  int64_t robot_ns = 0;              // mid-exposure on CLOCK_REALTIME [ns] (utime * 1000)
   int64_t buffer_monotonic_ns = 0;   // the buffer's stamp (or dequeue time on fallback)
   int64_t dequeue_monotonic_ns = 0;  // when the driver got it
   int64_t exposure_us = 0;           // 0 if unknown
@@ -108,8 +108,8 @@ class V4l2Capture {
   std::string OpenDevice(const std::string& path);
   // Dequeues and handles every ready buffer; kLost/kFailed on device errors.
   Outcome DrainBuffers(const FrameCallback& on_frame);
-  void HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint32_t flags,
-                    int64_t buffer_ns, int64_t sequence, const FrameCallback& on_frame);
+  void HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint32_t flags, int64_t buffer_ns,
+                    int64_t sequence, const FrameCallback& on_frame);
   void Lose(Outcome outcome, const std::string& why);
   void Log(const std::string& message) const;
 
@@ -127,9 +127,9 @@ class V4l2Capture {
   std::string by_id_link_;
   cv::Mat image_;  // conversion target, reused
 
-  int64_t last_sequence_ = -1;        // of the current stream
-  int64_t last_frame_ns_ = 0;         // monotonic time of the last dequeue (or stream start)
-  int64_t exposure_us_ = 0;           // fixed, or the last auto readback
+  int64_t last_sequence_ = -1;  // of the current stream
+  int64_t last_frame_ns_ = 0;   // monotonic time of the last dequeue (or stream start)
+  int64_t exposure_us_ = 0;     // fixed, or the last auto readback
   int64_t exposure_read_at_ns_ = 0;
   bool fixed_exposure_ = false;
   double backoff_s_ = 0.0;

@@ -6,7 +6,6 @@
 #include <cstdint>
 #include <string>
 #include <vector>
-
 #include <vilma/image_t.hpp>
 
 #include "vilma/drivers/v4l2/v4l2_capture.h"

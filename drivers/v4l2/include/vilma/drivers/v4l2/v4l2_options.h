@@ -14,13 +14,13 @@ namespace vilma::v4l2 {
 
 struct V4l2DriverOptions {
   CaptureOptions capture;
-  std::string lcm_url;            // "" = $LCM_DEFAULT_URL or LCM's default (ttl=0)
-  std::string channel = "CAM0";   // image_t channel (before the suffix)
-  std::string channel_suffix;     // appended to every channel (several robots on one network)
-  std::string status_channel;     // "" = VILMA_STATUS_<channel>
-  int camera_id = 0;              // image_t.camera_id: the camera's index in the sensor rig
-  double status_period_s = 1.0;   // status_t period [s]
-  double seconds = 0.0;           // stop after this long [s]; 0 = until SIGINT/SIGTERM
+  std::string lcm_url;           // "" = $LCM_DEFAULT_URL or LCM's default (ttl=0)
+  std::string channel = "CAM0";  // image_t channel (before the suffix)
+  std::string channel_suffix;    // appended to every channel (several robots on one network)
+  std::string status_channel;    // "" = VILMA_STATUS_<channel>
+  int camera_id = 0;             // image_t.camera_id: the camera's index in the sensor rig
+  double status_period_s = 1.0;  // status_t period [s]
+  double seconds = 0.0;          // stop after this long [s]; 0 = until SIGINT/SIGTERM
   // Command line only:
   bool fake = false;          // the in-process fake camera (fake_v4l2_io.h) instead of the kernel
   bool list = false;          // print devices, formats, controls and exit

@@ -1,0 +1,308 @@
+// vilma-v4l2's capture loop (drivers/v4l2/src/v4l2_capture.cpp) against the fake camera:
+// frames and their pictures, sequence-gap drops, malformed buffers, unplug/replug (also under
+// another /dev/videoN), stalls, timestamp fallbacks and the errors of a first open.
+#include <catch2/catch.hpp>
+
+#include "test_skip.h"
+
+#ifdef VILMA_HAVE_DRIVER_V4L2
+#include <linux/videodev2.h>
+
+#include <thread>
+#include <vector>
+
+#include "vilma/core/clock_sync.h"
+#include "vilma/core/error.h"
+#include "vilma/drivers/v4l2/fake_v4l2_io.h"
+#include "vilma/drivers/v4l2/v4l2_capture.h"
+
+namespace vilma::v4l2 {
+namespace {
+
+const char kById[] = "/dev/v4l/by-id/usb-vilma_Fake_Camera_0001-video-index0";
+
+struct Frame {
+  int64_t sequence;
+  int64_t robot_ns;
+  int64_t buffer_ns;
+  double error;  // max |pixel - FakeFramePattern(sequence)|
+  int type;
+};
+
+// Runs the capture for `seconds` and records every frame.
+struct Recorder {
+  std::vector<Frame> frames;
+  std::vector<std::string> log;
+  int sleep_ms = 0;  // a slow consumer
+
+  V4l2Capture::FrameCallback Callback() {
+    return [this](const CapturedFrame& f) {
+      cv::Mat expected = FakeFramePattern(f.sequence, f.image->cols, f.image->rows);
+      cv::Mat image8 = *f.image;
+      if (f.image->type() == CV_16UC1) f.image->convertTo(image8, CV_8UC1, 1.0 / 256.0);
+      frames.push_back({f.sequence, f.robot_ns, f.buffer_monotonic_ns,
+                        cv::norm(image8, expected, cv::NORM_INF), f.image->type()});
+      if (sleep_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
+    };
+  }
+  V4l2Capture::LogFunction Log() {
+    return [this](const std::string& m) { log.push_back(m); };
+  }
+};
+
+CaptureOptions Options(uint32_t fourcc, double fps) {
+  CaptureOptions o;
+  o.format.fourccs = {fourcc};
+  o.format.width = 320;
+  o.format.height = 240;
+  o.format.fps = fps;
+  o.reconnect_initial_s = 0.02;
+  o.reconnect_max_s = 0.1;
+  return o;
+}
+
+int64_t Measure() { return MeasureRealtimeMinusMonotonicNs(4); }
+
+TEST_CASE("v4l2 frames arrive at the camera's rate with its pictures and mid-exposure stamps",
+          "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  Recorder rec;
+  CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
+  options.controls.exposure_us = 4000;
+  V4l2Capture capture(&fake, options, &status, Measure, rec.Log());
+  capture.Open();
+  CHECK(capture.node() == "/dev/video0");
+  CHECK(capture.by_id_link() == kById);
+  CHECK(status.state() == status_t::OK);
+  capture.Run(nullptr, 1.0, rec.Callback());
+  // 60 fps for 1 s (the first frame is due one interval after STREAMON).
+  REQUIRE(rec.frames.size() >= 57);
+  CHECK(rec.frames.size() <= 61);
+  for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+    CHECK(rec.frames[i].sequence == static_cast<int64_t>(i));
+    CHECK(rec.frames[i].error == 0.0);
+    if (i > 0) {
+      // SOE stamps exactly 1/60 s apart; mid-exposure adds 2 ms to each.
+      CHECK(std::llabs(rec.frames[i].buffer_ns - rec.frames[i - 1].buffer_ns - 16666666) <= 1000);
+      const int64_t step = rec.frames[i].robot_ns - rec.frames[i - 1].robot_ns;
+      CHECK(std::llabs(step - 16666666) < 200000);  // + offset refreshes (< 0.2 ms)
+    }
+  }
+  // robot time = SOE + exposure / 2 on CLOCK_REALTIME.
+  const int64_t offset = MeasureRealtimeMinusMonotonicNs();
+  CHECK(std::llabs(rec.frames[0].robot_ns - (rec.frames[0].buffer_ns + 2000000 + offset)) <
+        1000000);
+  CHECK(status.Counter(kStatusDropped) == 0);
+  CHECK(status.Counter(kStatusMalformed) == 0);
+  CHECK(status.Counter(kCounterFramesDequeued) == static_cast<int64_t>(rec.frames.size()));
+  CHECK(status.Metric("exposure_us") == 4000.0);
+  CHECK(fake.ControlValue(V4L2_CID_EXPOSURE_ABSOLUTE) == 40);
+  capture.Close();
+  CHECK(capture.node().empty());
+}
+
+TEST_CASE("v4l2 every pixel format reaches the callback as the camera's picture", "[v4l2]") {
+  struct Case {
+    uint32_t fourcc;
+    bool keep_16_bit;
+    int type;
+    double tolerance;
+  };
+  for (const Case& c :
+       {Case{V4L2_PIX_FMT_Y16, false, CV_8UC1, 0.0}, Case{V4L2_PIX_FMT_Y16, true, CV_16UC1, 1.0},
+        Case{V4L2_PIX_FMT_YUYV, false, CV_8UC1, 0.0},
+        Case{V4L2_PIX_FMT_MJPEG, false, CV_8UC1, 12.0}}) {
+    CAPTURE(FourccName(c.fourcc), c.keep_16_bit);
+    FakeV4l2Io fake;
+    DriverStatus status("test");
+    Recorder rec;
+    CaptureOptions options = Options(c.fourcc, 30);
+    options.format.width = 640;
+    options.format.height = 480;
+    options.keep_16_bit = c.keep_16_bit;
+    V4l2Capture capture(&fake, options, &status, Measure, rec.Log());
+    capture.Open();
+    capture.Run(nullptr, 0.25, rec.Callback());
+    REQUIRE(rec.frames.size() >= 5);
+    for (const Frame& f : rec.frames) {
+      CHECK(f.type == c.type);
+      CHECK(f.error <= c.tolerance);
+    }
+    CHECK(status.Counter(kStatusMalformed) == 0);
+  }
+}
+
+TEST_CASE("v4l2 sequence gaps are counted as dropped, error buffers as malformed", "[v4l2]") {
+  FakeV4l2Io fake;
+  fake.DropSequences({5, 6, 7, 20});
+  fake.CorruptSequences({10, 11});
+  DriverStatus status("test");
+  Recorder rec;
+  V4l2Capture capture(&fake, Options(V4L2_PIX_FMT_GREY, 60), &status, Measure, rec.Log());
+  capture.Open();
+  capture.Run(nullptr, 0.5, rec.Callback());
+  REQUIRE(rec.frames.size() >= 22);
+  CHECK(status.Counter(kStatusDropped) == 4);
+  CHECK(status.Counter(kStatusMalformed) == 2);
+  for (const Frame& f : rec.frames) {
+    CHECK(f.sequence != 5);
+    CHECK(f.sequence != 10);  // not published
+    CHECK(f.error == 0.0);
+  }
+}
+
+TEST_CASE("v4l2 a slow consumer: frames the kernel had no buffer for show up as drops", "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  Recorder rec;
+  rec.sleep_ms = 40;  // 25 Hz of work at 60 fps
+  CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
+  options.buffers = 2;
+  V4l2Capture capture(&fake, options, &status, Measure, rec.Log());
+  capture.Open();
+  capture.Run(nullptr, 1.0, rec.Callback());
+  const FakeCameraStats stats = fake.stats();
+  REQUIRE(stats.frames_lost_no_buffer > 10);
+  // Every lost frame before the last dequeued one is seen as a gap.
+  const int64_t last = rec.frames.back().sequence;
+  CHECK(status.Counter(kStatusDropped) == last + 1 - static_cast<int64_t>(rec.frames.size()));
+  CHECK(status.Counter(kStatusDropped) <= stats.frames_lost_no_buffer);
+  CHECK(status.Counter(kStatusDropped) >= stats.frames_lost_no_buffer - 3);
+}
+
+TEST_CASE("v4l2 unplug and replug: the stream comes back, counted", "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  Recorder rec;
+  V4l2Capture capture(&fake, Options(V4L2_PIX_FMT_GREY, 60), &status, Measure, rec.Log());
+  capture.Open();
+  fake.UnplugAfterFrames(20, 0.3);
+  std::atomic<bool> stop{false};
+  int32_t state_during_outage = -1;
+  std::thread watcher([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // 0.33 s in, 0.3 s down
+    state_during_outage = status.state();
+  });
+  capture.Run(&stop, 1.5, rec.Callback());
+  watcher.join();
+  CHECK(state_during_outage == status_t::DEGRADED);
+  CHECK(status.state() == status_t::OK);
+  CHECK(status.Counter(kCounterDeviceLost) == 1);
+  CHECK(status.Counter(kStatusReconnects) == 1);
+  CHECK(status.Counter(kStatusDropped) == 0);  // the new stream restarts at 0: no false drops
+  CHECK(fake.stats().unplugs == 1);
+  // Before: 19 frames; after: the rest of 1.5 s minus ~0.3-0.4 s down.
+  int restarts = 0;
+  for (std::size_t i = 1; i < rec.frames.size(); ++i) {
+    if (rec.frames[i].sequence < rec.frames[i - 1].sequence) ++restarts;
+  }
+  CHECK(restarts == 1);
+  CHECK(rec.frames.size() >= 60);
+  bool logged = false;
+  for (const std::string& line : rec.log)
+    logged = logged || line.find("reconnected") != std::string::npos;
+  CHECK(logged);
+}
+
+TEST_CASE("v4l2 a camera that comes back as another /dev/videoN is found by its by-id link",
+          "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  Recorder rec;
+  CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
+  options.device = "/dev/video0";
+  V4l2Capture capture(&fake, options, &status, Measure, rec.Log());
+  capture.Open();
+  fake.UnplugAfterFrames(10, 0.2, "/dev/video2");
+  capture.Run(nullptr, 1.0, rec.Callback());
+  CHECK(fake.CurrentNode() == "/dev/video2");
+  CHECK(capture.node() == "/dev/video2");
+  CHECK(status.Counter(kStatusReconnects) == 1);
+  CHECK(rec.frames.size() >= 30);
+}
+
+TEST_CASE("v4l2 a long outage backs off and is recovered; a stall restarts the stream", "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  Recorder rec;
+  V4l2Capture capture(&fake, Options(V4L2_PIX_FMT_GREY, 60), &status, Measure, rec.Log());
+  capture.Open();
+  fake.Unplug(0.8);
+  const int64_t opens_before = fake.stats().opens;
+  capture.Run(nullptr, 1.2, rec.Callback());
+  CHECK(status.Counter(kStatusReconnects) == 1);
+  // 0.02 s doubling to 0.1 s over 0.8 s: about 10 attempts, not hundreds.
+  CHECK(fake.stats().opens - opens_before == 1);  // only the successful one opens a node
+  CHECK(rec.frames.size() >= 10);
+
+  // No frame for frame_timeout_s: the stream is restarted (counted), then frames flow again.
+  FakeV4l2Io stalled;
+  DriverStatus stalled_status("test");
+  Recorder stalled_rec;
+  CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
+  options.frame_timeout_s = 0.2;
+  V4l2Capture stalled_capture(&stalled, options, &stalled_status, Measure, stalled_rec.Log());
+  stalled_capture.Open();
+  stalled.SetDeliveryDelayNs(int64_t{3600} * 1000000000);
+  stalled_capture.Run(nullptr, 0.5, stalled_rec.Callback());
+  CHECK(stalled_status.Counter(kCounterStreamRestarts) >= 1);
+  CHECK(stalled_status.Counter(kCounterDeviceLost) == 0);
+}
+
+TEST_CASE("v4l2 buffers without monotonic stamps are stamped at dequeue, counted", "[v4l2]") {
+  FakeCameraSpec spec;
+  spec.timestamp_flags = V4L2_BUF_FLAG_TIMESTAMP_COPY;
+  FakeV4l2Io fake(spec);
+  DriverStatus status("test");
+  Recorder rec;
+  V4l2Capture capture(&fake, Options(V4L2_PIX_FMT_GREY, 60), &status, Measure, rec.Log());
+  capture.Open();
+  capture.Run(nullptr, 0.3, rec.Callback());
+  REQUIRE(!rec.frames.empty());
+  CHECK(status.Counter(kCounterTimestampFallbacks) == static_cast<int64_t>(rec.frames.size()));
+}
+
+TEST_CASE("v4l2 a first open that cannot work is an error naming the device and what it offers",
+          "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  auto open_error = [&](const CaptureOptions& options) -> std::string {
+    V4l2Capture capture(&fake, options, &status, Measure, nullptr);
+    try {
+      capture.Open();
+    } catch (const InputError& e) {
+      return e.what();
+    }
+    return "";
+  };
+  CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 30);
+  options.device = "/dev/video7";
+  CHECK(open_error(options).find("/dev/video7: an existing V4L2 device") != std::string::npos);
+  options.device = "/dev/video1";  // the metadata node
+  CHECK(open_error(options).find("not a video capture node") != std::string::npos);
+  options = Options(V4L2_PIX_FMT_YUYV, 30);
+  options.format.width = 1280;
+  options.format.height = 720;
+  options.format.require_size = true;
+  CHECK(open_error(options).find("asked for 1280x720, the device set 640x480 (YUYV sizes: "
+                                 "640x480, 320x240)") != std::string::npos);
+  options = Options(V4L2_PIX_FMT_GREY, 30);
+  options.controls.gain = 1000;
+  CHECK(open_error(options).find("gain=1000 is out of range 0..100") != std::string::npos);
+  // Nothing stays open after a failed open.
+  options = Options(V4L2_PIX_FMT_GREY, 30);
+  CHECK(open_error(options).empty());
+
+  options.buffers = 1;
+  CHECK_THROWS_AS(V4l2Capture(&fake, options, &status, Measure, nullptr), InputError);
+}
+
+}  // namespace
+}  // namespace vilma::v4l2
+
+#else
+TEST_CASE("vilma-v4l2 capture loop", "[v4l2]") {
+  VILMA_SKIP("vilma-v4l2 is not built here (<linux/videodev2.h> missing)");
+}
+#endif
