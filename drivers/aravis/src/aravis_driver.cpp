@@ -4,6 +4,7 @@
 #include <time.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstdlib>
 #include <cmath>
 #include <lcm/lcm-cpp.hpp>
@@ -40,6 +41,18 @@ class StreamCounterTotals {
   void EndConnection() {
     for (const auto& [name, value] : current_) done_[name] += value;
     current_.clear();
+  }
+  // "completed_buffers=60 failures=0 ..." for the log.
+  std::string Text() const {
+    std::map<std::string, uint64_t> total = done_;
+    for (const auto& [name, value] : current_) total[name] += value;
+    std::string text;
+    for (const auto& [name, value] : total) {
+      if (value == 0) continue;
+      text += (text.empty() ? "" : " ") + (name.rfind("n_", 0) == 0 ? name.substr(2) : name) +
+              "=" + std::to_string(value);
+    }
+    return text;
   }
   void Report(DriverStatus* status) const {
     std::map<std::string, uint64_t> total = done_;
@@ -222,7 +235,14 @@ AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,
     }
     last_frame_ns = SteadyNs();
     if (!frame.ok) {
-      // Incomplete buffer (missing packets after resends, timeout, size mismatch, ...).
+      // Incomplete buffer (missing packets after resends, timeout, size mismatch, ...): not
+      // published, but it arrived, so its id still counts in the sequence: `dropped` stays
+      // the frames that never arrived, and image_t.seq skips this one.
+      if (frame.frame_id != 0) {
+        const FrameIdTracker::Step step = ids.Next(frame.frame_id);
+        summary.dropped += step.dropped;
+        status.Increment(kStatusDropped, step.dropped);
+      }
       ++summary.failed_buffers;
       status.Increment("failed_buffers");
       status.Increment("buffer_" + frame.status);
@@ -281,9 +301,20 @@ AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,
   stream_totals.Report(&status);
   status.SetCounter(kStatusTimestampResets, stamper.clock_sync().stats().resets);
   status_publisher.Stop();
+  const status_t last = status.Build(SteadyNs(), 0);
+  double p50_ms = 0.0, p99_ms = 0.0;
+  for (int i = 0; i < last.num_metrics; ++i) {
+    if (last.metric_names[i] == kStatusLatencyP50Ms) p50_ms = last.metric_values[i];
+    if (last.metric_names[i] == kStatusLatencyP99Ms) p99_ms = last.metric_values[i];
+  }
+  char latency[96];
+  std::snprintf(latency, sizeof(latency), "latency to publish p50 %.2f ms, p99 %.2f ms", p50_ms,
+                p99_ms);
   *log << kProgram << ": stopped: " << summary.published << " frames published, "
        << summary.dropped << " dropped, " << summary.failed_buffers << " incomplete, "
-       << summary.reconnects << " reconnects" << std::endl;
+       << summary.reconnects << " reconnects; " << latency << " (arrival -> LCM publish, last "
+       << "512 frames)" << std::endl;
+  *log << kProgram << ": stream: " << stream_totals.Text() << std::endl;
   return summary;
 }
 
