@@ -1,8 +1,10 @@
 #!/bin/bash
-# Latency of the camera drivers: from a frame's end of exposure (the buffer's arrival stamp on
-# the host) to its image_t arriving at an LCM subscriber on the same host (loopback), measured
-# by vilma-frame-latency. vilma-aravis runs Aravis's in-process fake camera (--fake), whose
-# clock is this host's CLOCK_REALTIME, so no clock error enters the figure. Prints the markdown
+# Latency of the camera drivers: from a frame's end of exposure to its image_t arriving at an
+# LCM subscriber on the same host (loopback), measured by vilma-frame-latency. vilma-aravis
+# runs Aravis's in-process fake camera (--fake) and, where aravis-tools is installed, the fake
+# GigE Vision camera on loopback; both stamp frames with this host's CLOCK_REALTIME, so no
+# clock error enters the figure. The last column is the driver's own view (buffer arrival ->
+# LCM publish, from its status window). Prints the markdown
 # table of docs/drivers.md ("Latency") and docs/benchmarks.md.
 #
 # Usage: scripts/bench-drivers.sh [SECONDS]
@@ -26,18 +28,18 @@ port=$(( 22000 + $$ % 20000 ))
 echo "| driver | source | format -> published | size | rate [Hz] | frames | latency p50 [ms] | p99 [ms] | max [ms] | driver-internal p50 / p99 [ms] |"
 echo "|---|---|---|---|---:|---:|---:|---:|---:|---|"
 
-aravis_row() {  # aravis_row WIDTH HEIGHT RATE PIXEL_FORMAT [DRIVER OPTIONS...]
-  local w=$1 h=$2 rate=$3 format=$4; shift 4
+aravis_row() {  # aravis_row SOURCE WIDTH HEIGHT RATE PIXEL_FORMAT [DRIVER OPTIONS...]
+  local source=$1 w=$2 h=$3 rate=$4 format=$5; shift 5
   port=$((port + 1))
   local url="udpm://239.255.76.67:$port?ttl=0"
   # The subscriber listens a little longer than the driver publishes; the first 5 frames
   # (camera start) are left out.
   "$latency" --lcm-url "$url" --seconds "$(awk -v s="$seconds" 'BEGIN {print s + 2}')" \
-    --min-frames 10 > "$work/latency.out" 2>&1 &
+    --skip 20 --min-frames 10 > "$work/latency.out" 2>&1 &
   local subscriber=$!
   sleep 0.5
   # Status every 0.5 s so that the last OK report holds the driver's own latency window.
-  "$aravis" --fake --lcm-url "$url" --width "$w" --height "$h" --frame-rate-hz "$rate" \
+  "$aravis" --lcm-url "$url" --width "$w" --height "$h" --frame-rate-hz "$rate" \
     --pixel-format "$format" --exposure-us 10000 --gain 0 --seconds "$seconds" "$@" \
     > "$work/aravis.out" 2>&1
   wait "$subscriber" || { cat "$work/latency.out" >&2; return 1; }
@@ -52,10 +54,19 @@ aravis_row() {  # aravis_row WIDTH HEIGHT RATE PIXEL_FORMAT [DRIVER OPTIONS...]
   internal=$(sed -n 's/.*latency to publish p50 \([0-9.]*\) ms, p99 \([0-9.]*\) ms.*/\1 \/ \2/p' "$work/aravis.out")
   local published
   published=$([ "$format" = Mono8 ] && echo GRAY8 || echo "GRAY8 ($format converted)")
-  echo "| vilma-aravis | fake camera | $format -> ${published%% *} | ${w}x${h} | $hz | $frames | $p50 | $p99 | $max | ${internal:-n/a} |"
+  echo "| vilma-aravis | $source | $format -> ${published%% *} | ${w}x${h} | $hz | $frames | $p50 | $p99 | $max | ${internal:-n/a} |"
 }
 
-aravis_row 752 480 20 Mono8
-aravis_row 752 480 20 BayerRG8
-aravis_row 752 480 20 Mono16
-aravis_row 1920 1200 30 Mono8
+aravis_row "in-process fake camera" 752 480 20 Mono8 --fake
+aravis_row "in-process fake camera" 752 480 20 BayerRG8 --fake
+aravis_row "in-process fake camera" 752 480 20 Mono16 --fake
+aravis_row "in-process fake camera" 1920 1200 30 Mono8 --fake
+# The GigE Vision path (GVCP/GVSP over loopback UDP) with aravis-tools' fake GigE camera.
+if command -v arv-fake-gv-camera-0.8 > /dev/null; then
+  arv-fake-gv-camera-0.8 --interface 127.0.0.1 --serial BENCH$$ > "$work/fake-gv.out" 2>&1 &
+  fake_gv=$!
+  sleep 0.5
+  aravis_row "arv-fake-gv-camera (GigE Vision, loopback)" 752 480 20 Mono8 --device BENCH$$
+  kill "$fake_gv"
+  wait "$fake_gv" 2> /dev/null || true
+fi
