@@ -5,6 +5,9 @@
 #include <catch2/catch.hpp>
 #include <cstdio>
 #include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
 
 #include "vilma/core/error.h"
 #include "vilma/drivers/lcm_convert.h"
@@ -64,6 +67,46 @@ TEST_CASE("LCM log write/read round trip", "[lcm]") {
                            &sample).empty());
   CHECK(msg.seq == 0);
   CHECK(read[1].channel == "RAW_CHANNEL");
+  std::remove(path.c_str());
+}
+
+TEST_CASE("a corrupted event header ends the log instead of allocating what it claims",
+          "[lcm]") {
+  // Three events, then the third's data length field overwritten with 2^31 - 1 (found by
+  // fuzz_lcm_log: liblcm allocates the claimed length before reading it).
+  const std::string path = TempPath("corrupt_length.lcmlog");
+  std::vector<long> event_offsets;
+  {
+    LcmLogWriter writer(path);
+    const std::vector<uint8_t> payload(100, 7);
+    for (int i = 0; i < 3; ++i) {
+      writer.Write("CHANNEL", payload.data(), static_cast<int>(payload.size()), i);
+    }
+    writer.Close();
+  }
+  std::string bytes;
+  {
+    std::ifstream in(path, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const std::string sync("\xED\xA1\xDA\x01", 4);
+  const std::size_t third = bytes.find(sync, bytes.find(sync, bytes.find(sync) + 1) + 1);
+  REQUIRE(third != std::string::npos);
+  const std::size_t data_length_at = third + 4 + 8 + 8 + 4;
+  bytes.replace(data_length_at, 4, std::string("\x7F\xFF\xFF\xFF", 4));
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << bytes;
+  }
+  const std::vector<LcmLogEvent> read = ReadLcmLog(path);
+  CHECK(read.size() == 2);  // the events before the corrupted one
+  // A channel length beyond liblcm's limit of 1000 ends the log as well.
+  bytes.replace(data_length_at - 4, 4, std::string("\x00\x00\x10\x00", 4));
+  {
+    std::ofstream out(path, std::ios::binary | std::ios::trunc);
+    out << bytes;
+  }
+  CHECK(ReadLcmLog(path).size() == 2);
   std::remove(path.c_str());
 }
 

@@ -3,6 +3,8 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <limits>
+#include <string>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <vector>
@@ -132,7 +134,19 @@ std::string MakeImageMessage(const cv::Mat& image, int32_t pixel_format, int64_t
   return ImageToMessage(image, pixel_format, msg);
 }
 
+std::string ValidateUtime(const char* type_name, int64_t utime) {
+  // Stamps are converted to int64 nanoseconds (UtimeToNs): beyond +-2^63 ns (year 2262) the
+  // product overflows. A message that far from now is corrupt; found by fuzz_lcm_messages.
+  constexpr int64_t kMaxUtime = std::numeric_limits<int64_t>::max() / 1000;
+  if (utime > kMaxUtime || utime < -kMaxUtime) {
+    return std::string(type_name) + ": utime " + std::to_string(utime) +
+           " us is out of range (|utime| <= " + std::to_string(kMaxUtime) + ")";
+  }
+  return "";
+}
+
 std::string ValidateImageMessage(const image_t& msg) {
+  if (std::string error = ValidateUtime("image_t", msg.utime); !error.empty()) return error;
   if (msg.width <= 0 || msg.height <= 0) {
     return "image_t: width " + std::to_string(msg.width) + " x height " +
            std::to_string(msg.height) + ": expected positive dimensions";
@@ -229,6 +243,7 @@ imu_t ImuToMessage(const ImuSample& sample, int64_t seq) {
 }
 
 std::string MessageToImu(const imu_t& msg, ImuSample* sample) {
+  if (std::string error = ValidateUtime("imu_t", msg.utime); !error.empty()) return error;
   for (int i = 0; i < 3; ++i) {
     if (!std::isfinite(msg.angular_velocity[i]) || !std::isfinite(msg.linear_acceleration[i])) {
       return "imu_t: non-finite angular_velocity or linear_acceleration";

@@ -1,8 +1,10 @@
 #include "vilma/drivers/lcm_log.h"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <cstdio>
 #include <cstring>
 #include <lcm/lcm-cpp.hpp>
@@ -63,7 +65,49 @@ LcmLogReader::LcmLogReader(const std::string& path) : path_(path) {
 
 LcmLogReader::~LcmLogReader() = default;
 
+namespace {
+
+// liblcm's reader allocates the data length an event header claims before reading it (up to
+// 2 GB from a few corrupted bytes: a hang under ASan, a failed allocation on a small robot
+// computer; found by fuzz/fuzz_lcm_log). This finds the next event header the way liblcm
+// does (scan for the sync word) and checks its lengths against the bytes left in the file,
+// then rewinds to the sync word. False: no valid event follows (the end of the log).
+bool NextEventHeaderIsPlausible(FILE* file) {
+  constexpr uint32_t kSyncWord = 0xEDA1DA01;
+  constexpr int32_t kMaxChannelLength = 1000;  // liblcm's own limit (eventlog.c)
+  const long start = std::ftell(file);
+  struct stat info;
+  if (start < 0 || ::fstat(::fileno(file), &info) != 0) return true;  // let liblcm decide
+  uint32_t word = 0;
+  long sync_at = -1;
+  for (int c; (c = std::fgetc(file)) != EOF;) {
+    word = (word << 8) | static_cast<uint32_t>(c);
+    if (word == kSyncWord) {
+      sync_at = std::ftell(file) - 4;
+      break;
+    }
+  }
+  bool plausible = false;
+  uint8_t header[24];  // event number, timestamp, channel length, data length (big endian)
+  if (sync_at >= 0 && std::fread(header, 1, sizeof(header), file) == sizeof(header)) {
+    const auto be32 = [&header](int at) {
+      return static_cast<int32_t>((uint32_t{header[at]} << 24) | (uint32_t{header[at + 1]} << 16) |
+                                  (uint32_t{header[at + 2]} << 8) | uint32_t{header[at + 3]});
+    };
+    const int32_t channel_length = be32(16);
+    const int32_t data_length = be32(20);
+    const int64_t left = static_cast<int64_t>(info.st_size) - (sync_at + 4 + 24);
+    plausible = channel_length > 0 && channel_length < kMaxChannelLength && data_length >= 0 &&
+                int64_t{channel_length} + data_length <= left;
+  }
+  std::fseek(file, sync_at >= 0 ? sync_at : start, SEEK_SET);
+  return plausible;
+}
+
+}  // namespace
+
 bool LcmLogReader::Next(LcmLogEvent* event) {
+  if (!NextEventHeaderIsPlausible(log_->getFilePtr())) return false;
   const lcm::LogEvent* e = log_->readNextEvent();
   if (e == nullptr) return false;
   event->timestamp_us = e->timestamp;

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "vilma/core/time.h"
+#include "vilma/drivers/lcm_safe_decode.h"
 #include "vilma/mapstore/checksum.h"
 
 namespace vilma {
@@ -203,8 +204,15 @@ LcmMissionStreamSender::LcmMissionStreamSender(lcm::LCM* lcm, const std::string&
               session_id) {
   subscription_ = lcm_->subscribeFunction(
       ack_channel,
-      +[](const lcm::ReceiveBuffer*, const std::string&, const vilma::mission_ack_t* ack,
-          MissionStreamSender* sender) { sender->OnAck(*ack); },
+      // Raw: lcm-gen's decoder would throw out of the handler on a malformed length field
+      // (lcm_safe_decode.h); an undecodable ack is dropped like a lost one.
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, MissionStreamSender* sender) {
+        vilma::mission_ack_t ack;
+        if (vilma::DecodeMissionAck(rbuf->data, static_cast<int>(rbuf->data_size), &ack)
+                .empty()) {
+          sender->OnAck(ack);
+        }
+      },
       &sender_);
   subscription_->setQueueCapacity(1024);  // LCM's default of 30 would drop acks in bursts
 }

@@ -17,6 +17,7 @@
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
+#include "vilma/drivers/lcm_safe_decode.h"
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/mapstore/stream/map_store_server.h"
@@ -171,18 +172,32 @@ int main(int argc, char** argv) {
     return 1;
   }
   uint64_t handler_errors = 0;
+  uint64_t chunks_undecodable = 0;
   struct Context {
     vilma::mapstore::MapStoreServer* server;
     int handled;
     uint64_t* errors;
-  } context{server.get(), 0, &handler_errors};
+    uint64_t* undecodable;
+  } context{server.get(), 0, &handler_errors, &chunks_undecodable};
+  // Raw subscription: lcm-gen's decoder would throw out of the handler on a malformed length
+  // field (lcm_safe_decode.h); undecodable datagrams are counted as chunks_undecodable.
   lcm::Subscription* subscription = lcm.subscribeFunction(
       chunk_channel,
-      +[](const lcm::ReceiveBuffer*, const std::string&, const vilma::mission_chunk_t* chunk,
-          Context* ctx) {
+      +[](const lcm::ReceiveBuffer* rbuf, const std::string&, Context* ctx) {
         ++ctx->handled;
+        vilma::mission_chunk_t chunk;
+        const std::string decode_error =
+            vilma::DecodeMissionChunk(rbuf->data, static_cast<int>(rbuf->data_size), &chunk);
+        if (!decode_error.empty()) {
+          ++*ctx->undecodable;
+          if (*ctx->undecodable <= 10 || *ctx->undecodable % 1000 == 0) {
+            Log("undecodable chunk (" + std::to_string(*ctx->undecodable) +
+                " so far): " + decode_error);
+          }
+          return;
+        }
         try {  // handlers never throw into LCM
-          ctx->server->OnChunk(*chunk);
+          ctx->server->OnChunk(chunk);
         } catch (const std::exception& e) {
           ++*ctx->errors;
           Log(std::string("chunk handler error: ") + e.what());
@@ -224,6 +239,7 @@ int main(int argc, char** argv) {
         {"io_errors", c.io_errors},
         {"finalize_errors", c.finalize_errors},
         {"handler_errors", handler_errors},
+        {"chunks_undecodable", chunks_undecodable},
         {"post_process_queued", post->counters().queued},
         {"post_process_running", post->counters().running},
         {"post_process_succeeded", post->counters().succeeded},

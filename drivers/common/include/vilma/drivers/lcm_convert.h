@@ -43,7 +43,11 @@ std::string ImageToMessage(const cv::Mat& image, int32_t pixel_format, image_t* 
 std::string MakeImageMessage(const cv::Mat& image, int32_t pixel_format, int64_t t_ns,
                              int64_t seq, int32_t camera_id, image_t* msg);
 
-// Checks an incoming image: positive dimensions, known format, camera_id >= 0, and for raw
+// "" when `utime` [us] converts to int64 nanoseconds without overflow (|utime| <= 2^63 / 1000),
+// else "<type_name>: utime ... is out of range". Image and IMU checks include it.
+std::string ValidateUtime(const char* type_name, int64_t utime);
+
+// Checks an incoming image: utime in range, positive dimensions, known format, camera_id >= 0, and for raw
 // formats row_stride >= width * bytes per pixel and size == height * row_stride; for JPEG/PNG
 // size > 0 and row_stride == 0; data holds `size` bytes.
 std::string ValidateImageMessage(const image_t& msg);

@@ -70,8 +70,9 @@ class LcmLogReader {
   LcmLogReader(const LcmLogReader&) = delete;
   LcmLogReader& operator=(const LcmLogReader&) = delete;
 
-  // The next event into `event`; false at the end of the log (a truncated last event, as
-  // left by a killed lcm-logger, also ends the log).
+  // The next event into `event`; false at the end of the log (a truncated last event, as left
+  // by a killed lcm-logger, or a corrupted header claiming more bytes than the file holds,
+  // also ends the log).
   bool Next(LcmLogEvent* event);
 
  private:

@@ -1,0 +1,96 @@
+#!/bin/bash
+# Fuzzing campaign over every decoder of untrusted bytes (fuzz/, docs/reliability.md): builds
+# the libFuzzer harnesses with clang + ASan + UBSan in <repo>/build-fuzz, writes each harness's
+# seed corpus (valid inputs made by vilma's own writers), runs each harness for the given time
+# or number of executions, and prints a table: executions, exec/s, corpus size, crashes,
+# timeouts (> 1 s), out-of-memory, leaks. Corpora persist in the cache folder, so campaigns
+# continue where the last one stopped. Exit status 1 when anything was found.
+#
+# Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [HARNESS ...]
+#   --minutes N   per harness (default 1)
+#   --runs N      per harness, instead of a time limit (e.g. 10000000)
+#   --jobs J      harnesses run in parallel (default 1)
+#   HARNESS       fuzz_lcm_messages fuzz_mission_stream ... (default: all, see fuzz/CMakeLists.txt)
+#   VILMA_FUZZ_DIR   corpora and findings (default ~/.cache/vilma/fuzz)
+# A finding is saved as VILMA_FUZZ_DIR/<harness>/findings/{crash,timeout,oom,leak}-<sha1>;
+# reproduce it with build-fuzz/fuzz/<harness> FILE, then copy it to
+# fuzz/regressions/<harness>/ so that the normal suite replays it (ctest -L fuzz).
+set -euo pipefail
+
+repo_dir=$(cd "$(dirname "$0")/.." && pwd)
+build_dir=$repo_dir/build-fuzz
+work_dir=${VILMA_FUZZ_DIR:-$HOME/.cache/vilma/fuzz}
+minutes=1
+runs=""
+jobs=1
+harnesses=()
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --minutes) minutes=$2; shift 2 ;;
+    --runs) runs=$2; shift 2 ;;
+    --jobs) jobs=$2; shift 2 ;;
+    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
+    *) harnesses+=("$1"); shift ;;
+  esac
+done
+[[ "$minutes" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "fuzz.sh: --minutes: expected a number" >&2; exit 2; }
+[ -z "$runs" ] || [[ "$runs" =~ ^[0-9]+$ ]] || { echo "fuzz.sh: --runs: expected an integer" >&2; exit 2; }
+[[ "$jobs" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --jobs: expected an integer >= 1" >&2; exit 2; }
+command -v clang++ > /dev/null || { echo "fuzz.sh: clang++ missing (apt-get install clang libfuzzer-14-dev)" >&2; exit 1; }
+
+all=$(sed -n '/^set(VILMA_FUZZ_HARNESSES/,/)/p' "$repo_dir/fuzz/CMakeLists.txt" | grep -o 'fuzz_[a-z_]*')
+[ ${#harnesses[@]} -gt 0 ] || mapfile -t harnesses <<< "$all"
+for h in "${harnesses[@]}"; do
+  grep -qx "$h" <<< "$all" || { echo "fuzz.sh: unknown harness $h (one of: $(echo $all))" >&2; exit 2; }
+done
+
+if [ ! -f "$build_dir/CMakeCache.txt" ]; then
+  CC=clang CXX=clang++ cmake -S "$repo_dir" -B "$build_dir" -DVILMA_FUZZ=ON -DBUILD_TESTING=OFF \
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo > "$build_dir.configure.log" 2>&1 ||
+    { cat "$build_dir.configure.log" >&2; exit 1; }
+fi
+echo "fuzz.sh: building the harnesses in $build_dir" >&2
+cmake --build "$build_dir" -j2 --target vilma_fuzzers > "$build_dir.build.log" 2>&1 ||
+  { tail -30 "$build_dir.build.log" >&2; exit 1; }
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+export VILMA_FUZZ_RIG_FILES="$repo_dir/config/euroc-rig.yaml"
+
+run_one() {
+  local h=$1 dir=$work_dir/$1
+  mkdir -p "$dir/corpus" "$dir/findings"
+  rm -rf "$dir/seeds"
+  VILMA_FUZZ_WRITE_SEEDS="$dir/seeds" "$build_dir/fuzz/$h" > /dev/null 2>&1 ||
+    { echo "fuzz.sh: $h could not write its seeds" >&2; return 1; }
+  local regressions=()
+  [ -d "$repo_dir/fuzz/regressions/$h" ] && regressions=("$repo_dir/fuzz/regressions/$h")
+  local limit=(-max_total_time=$(awk "BEGIN { printf \"%d\", $minutes * 60 }"))
+  [ -n "$runs" ] && limit=(-runs="$runs")
+  local start=$(date +%s)
+  # -timeout=1: an input that takes more than 1 s is a hang; -rss_limit_mb: a decoder must not
+  # allocate what a field claims before checking it against the input's size.
+  set +e
+  "$build_dir/fuzz/$h" "${limit[@]}" -timeout=1 -rss_limit_mb=2048 -print_final_stats=1 \
+    -artifact_prefix="$dir/findings/" "$dir/corpus" "$dir/seeds" "${regressions[@]}" \
+    > "$dir/last-run.log" 2>&1
+  local status=$?
+  set -e
+  local seconds=$(( $(date +%s) - start ))
+  local execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
+  local rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
+  count() { find "$dir/findings" -name "$1-*" 2> /dev/null | wc -l; }
+  printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "${execs:-?}" "${rate:-?}" \
+    "$(ls "$dir/corpus" | wc -l)" "$(count crash)" "$(count timeout)" "$(count oom)" \
+    "$(count leak)" "$([ $status -eq 0 ] && echo ok || echo "FOUND (exit $status, $seconds s): $dir/last-run.log")"
+}
+export -f run_one
+export build_dir work_dir minutes runs repo_dir
+
+mkdir -p "$work_dir"
+echo "| harness | executions | exec/s | corpus | crashes | timeouts | oom | leaks | result |"
+echo "|---|---:|---:|---:|---:|---:|---:|---:|---|"
+printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one {}' | sort > "$work_dir/last-table.txt" || true
+cat "$work_dir/last-table.txt"
+! grep -q FOUND "$work_dir/last-table.txt"
