@@ -168,7 +168,9 @@ TEST_CASE("v4l2 a slow consumer: frames the kernel had no buffer for show up as 
   const int64_t last = rec.frames.back().sequence;
   CHECK(status.Counter(kStatusDropped) == last + 1 - static_cast<int64_t>(rec.frames.size()));
   CHECK(status.Counter(kStatusDropped) <= stats.frames_lost_no_buffer);
-  CHECK(status.Counter(kStatusDropped) >= stats.frames_lost_no_buffer - 3);
+  // The fake also lost frames after the last dequeue (up to the ring plus the frames due
+  // during the consumer's last 40 ms and the final poll): not gaps yet.
+  CHECK(status.Counter(kStatusDropped) >= stats.frames_lost_no_buffer - 10);
 }
 
 TEST_CASE("v4l2 unplug and replug: the stream comes back, counted", "[v4l2]") {
@@ -222,7 +224,7 @@ TEST_CASE("v4l2 a camera that comes back as another /dev/videoN is found by its 
   CHECK(rec.frames.size() >= 30);
 }
 
-TEST_CASE("v4l2 a long outage backs off and is recovered; a stall restarts the stream", "[v4l2]") {
+TEST_CASE("v4l2 a long outage backs off and is recovered, a stall restarts the stream", "[v4l2]") {
   FakeV4l2Io fake;
   DriverStatus status("test");
   Recorder rec;

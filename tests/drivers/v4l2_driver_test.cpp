@@ -99,6 +99,15 @@ int64_t CounterOf(const status_t& report, const std::string& name) {
   return -1;
 }
 
+double MetricOf(const status_t& report, const std::string& name) {
+  for (int i = 0; i < report.num_metrics; ++i) {
+    if (report.metric_names[static_cast<std::size_t>(i)] == name) {
+      return report.metric_values[static_cast<std::size_t>(i)];
+    }
+  }
+  return -1.0;
+}
+
 TEST_CASE("vilma-v4l2 --help, usage errors, bad config, --list", "[v4l2][program]") {
   if (!test::FileExists(kProgram)) VILMA_SKIP(kProgram << " is not built");
   const std::string dir = test::ScratchDir();
@@ -182,6 +191,9 @@ TEST_CASE("vilma-v4l2 --fake publishes the camera's frames on LCM at its rate", 
   CHECK(CounterOf(last, "published") == static_cast<int64_t>(images.size()));
   CHECK(CounterOf(last, "dropped") == 0);
   CHECK(CounterOf(last, "reconnects") == 0);
+  // The driver's own latency, end of frame -> published: small on an idle machine.
+  CHECK(MetricOf(last, "latency_p50_ms") > 0.0);
+  CHECK(MetricOf(last, "latency_p50_ms") < 20.0);
   bool ok_seen = false;
   for (const status_t& r : bus.reports) ok_seen = ok_seen || r.state == status_t::OK;
   CHECK(ok_seen);

@@ -28,9 +28,11 @@ TEST_CASE("v4l2 start-of-exposure and end-of-frame stamps become mid-exposure", 
   CHECK_FALSE(f.fallback);
   CHECK(f.mid_monotonic_ns == t + 5 * kMs);
   CHECK(f.robot_ns == t + 5 * kMs + offset);
+  CHECK(f.end_of_frame_monotonic_ns == t + 10 * kMs + 4 * kMs);  // + exposure + readout
   // EOF: - readout - exposure / 2.
   f = stamper.Stamp(kEof, t + 50 * kMs, t + 51 * kMs, 10 * kMs);
   CHECK(f.mid_monotonic_ns == t + 50 * kMs - 4 * kMs - 5 * kMs);
+  CHECK(f.end_of_frame_monotonic_ns == t + 50 * kMs);
   // Unknown exposure: the stamp itself (SOE) or minus the readout (EOF).
   CHECK(stamper.Stamp(kSoe, t + 60 * kMs, t + 70 * kMs, 0).mid_monotonic_ns == t + 60 * kMs);
   // mid_exposure off: the kernel's stamp as it is.
@@ -61,7 +63,7 @@ TEST_CASE("v4l2 stamps that are not monotonic or not plausible fall back to the 
   CHECK_FALSE(stamper.Stamp(kSoe, dequeue - kMs, dequeue, 0).fallback);
 }
 
-TEST_CASE("v4l2 the realtime offset is refreshed; NTP slew is followed, steps are counted",
+TEST_CASE("v4l2 the realtime offset is refreshed, NTP slew is followed, steps are counted",
           "[v4l2]") {
   // A simulated realtime clock: slews at 500 ppm (the most NTP does), steps by +2 s once.
   int64_t monotonic = 100 * 1000 * kMs;

@@ -41,6 +41,8 @@ StampedFrame FrameTimestamper::Stamp(uint32_t buffer_flags, int64_t buffer_ns,
     start_of_exposure = false;  // the dequeue comes after the frame's end
   }
   frame.mid_monotonic_ns = stamp_ns;
+  frame.end_of_frame_monotonic_ns =
+      start_of_exposure ? stamp_ns + exposure_ns + readout_ns : stamp_ns;
   if (options_.mid_exposure || frame.fallback) {
     frame.mid_monotonic_ns =
         start_of_exposure ? stamp_ns + exposure_ns / 2 : stamp_ns - readout_ns - exposure_ns / 2;

@@ -215,6 +215,11 @@ void V4l2Capture::Close() {
   node_.clear();
 }
 
+V4l2Capture::Outcome V4l2Capture::Classify() {
+  v4l2_capability cap{};
+  return io_->Ioctl(fd_, VIDIOC_QUERYCAP, &cap) != 0 ? Outcome::kLost : Outcome::kFailed;
+}
+
 void V4l2Capture::Lose(Outcome outcome, const std::string& why) {
   Close();
   lost_ = true;
@@ -269,6 +274,7 @@ void V4l2Capture::HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint
   frame.sequence = sequence;
   frame.robot_ns = stamp.robot_ns;
   frame.buffer_monotonic_ns = stamp.fallback ? dequeue_ns : buffer_ns;
+  frame.end_of_frame_monotonic_ns = stamp.end_of_frame_monotonic_ns;
   frame.dequeue_monotonic_ns = dequeue_ns;
   frame.exposure_us = exposure_us_;
   on_frame(frame);
@@ -351,17 +357,16 @@ void V4l2Capture::Run(const std::atomic<bool>* stop, double seconds,
     const int64_t poll_ms = std::clamp<int64_t>((end_ns - now_ns) / 1000000, 0, 100);
     const int ready = io_->Poll(fd_, static_cast<int>(poll_ms));
     if (ready < 0) {
-      // POLLERR: unplugged, or the stream broke. QUERYCAP tells which.
-      v4l2_capability cap{};
-      const int result = io_->Ioctl(fd_, VIDIOC_QUERYCAP, &cap);
-      const Outcome outcome = result != 0 ? Outcome::kLost : Outcome::kFailed;
+      // POLLERR: unplugged, or the stream broke.
+      const Outcome outcome = Classify();
       Lose(outcome,
            node_ + (outcome == Outcome::kLost ? ": device lost (unplugged?)" : ": stream error"));
       next_attempt_ns = io_->MonotonicNowNs() + SecondsToNsRounded(options_.reconnect_initial_s);
       continue;
     }
     if (ready > 0) {
-      const Outcome outcome = DrainBuffers(on_frame);
+      Outcome outcome = DrainBuffers(on_frame);
+      if (outcome == Outcome::kFailed) outcome = Classify();
       if (outcome != Outcome::kOk) {
         Lose(outcome, node_ + (outcome == Outcome::kLost ? ": device lost (unplugged?)"
                                                          : ": buffer queue error"));

@@ -144,9 +144,9 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
       return;
     }
     const int64_t published_ns = SteadyNowNs();
-    // Latency: the kernel's buffer stamp (start of exposure for UVC) to the message on the
+    // Latency: the frame complete (end of frame, frame_timestamper.h) to the message on the
     // bus, both CLOCK_MONOTONIC (= steady_clock on Linux).
-    status.RecordPublished(published_ns, (published_ns - frame.buffer_monotonic_ns) * 1e-6);
+    status.RecordPublished(published_ns, (published_ns - frame.end_of_frame_monotonic_ns) * 1e-6);
   });
   Notify("STOPPING=1");
   status.SetState(status_t::STOPPING, "stopping");

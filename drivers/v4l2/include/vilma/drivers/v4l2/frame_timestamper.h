@@ -47,7 +47,10 @@ struct TimestampOptions {
 struct StampedFrame {
   int64_t mid_monotonic_ns = 0;  // the published instant on CLOCK_MONOTONIC [ns]
   int64_t robot_ns = 0;          // the same on CLOCK_REALTIME (robot clock) [ns]
-  bool fallback = false;         // stamped with the dequeue time
+  // When the frame was complete on CLOCK_MONOTONIC [ns]: an EOF stamp (or the dequeue time
+  // on fallback), else the SOE stamp + exposure + readout. Latency is counted from here.
+  int64_t end_of_frame_monotonic_ns = 0;
+  bool fallback = false;  // stamped with the dequeue time
 };
 
 class FrameTimestamper {

@@ -60,12 +60,13 @@ struct CaptureOptions {
 };
 
 struct CapturedFrame {
-  const cv::Mat* image = nullptr;    // CV_8UC1, or CV_16UC1 (keep_16_bit and Y16)
-  int64_t sequence = 0;              // the kernel's buffer sequence number
-  int64_t robot_ns = 0;              // mid-exposure on CLOCK_REALTIME [ns] (utime * 1000)
-  int64_t buffer_monotonic_ns = 0;   // the buffer's stamp (or dequeue time on fallback)
-  int64_t dequeue_monotonic_ns = 0;  // when the driver got it
-  int64_t exposure_us = 0;           // 0 if unknown
+  const cv::Mat* image = nullptr;         // CV_8UC1, or CV_16UC1 (keep_16_bit and Y16)
+  int64_t sequence = 0;                   // the kernel's buffer sequence number
+  int64_t robot_ns = 0;                   // mid-exposure on CLOCK_REALTIME [ns] (utime * 1000)
+  int64_t buffer_monotonic_ns = 0;        // the buffer's stamp (or dequeue time on fallback)
+  int64_t end_of_frame_monotonic_ns = 0;  // when the frame was complete (frame_timestamper.h)
+  int64_t dequeue_monotonic_ns = 0;       // when the driver got it
+  int64_t exposure_us = 0;                // 0 if unknown
 };
 
 class V4l2Capture {
@@ -111,6 +112,9 @@ class V4l2Capture {
   void HandleBuffer(const uint8_t* data, std::size_t bytes_used, uint32_t flags, int64_t buffer_ns,
                     int64_t sequence, const FrameCallback& on_frame);
   void Lose(Outcome outcome, const std::string& why);
+  // After a failed poll or ioctl: kLost when the device is gone (QUERYCAP fails: uvcvideo
+  // first fails DQBUF with EIO, then every ioctl with ENODEV), else kFailed.
+  Outcome Classify();
   void Log(const std::string& message) const;
 
   V4l2Io* io_;
