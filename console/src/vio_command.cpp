@@ -16,6 +16,7 @@
 #include "vilma/core/rig.h"
 #include "vilma/core/timing.h"
 #include "vilma/core/trajectory.h"
+#include "vilma/estimator/given_state_io.h"
 #include "vilma/estimator/vio_filter.h"
 #include "vilma/mapping/map_builder.h"
 #include "vilma/mapstore/id.h"
@@ -30,7 +31,7 @@ namespace {
 void PrintVioHelp(std::ostream& out) {
   out << "usage: vilma vio DATASET --out TRAJ.txt [--config FILE] [--rig RIG.yaml]\n"
          "                 [--camera INDEX] [--log-timing FILE] [--print-config]\n"
-         "                 [--save-map DIR [--map-config FILE]]\n"
+         "                 [--save-map DIR [--map-config FILE]] [--initial-state FILE]\n"
          "\n"
          "Runs the ROVIO-style visual-inertial odometry over an ASL/EuRoC dataset folder,\n"
          "single-threaded and deterministically, and writes the IMU pose T_M_I of every frame\n"
@@ -48,7 +49,15 @@ void PrintVioHelp(std::ostream& out) {
          "                      features of every camera of the dataset, landmarks) and save it\n"
          "                      as a map folder in DIR; prints the builder statistics\n"
          "  --map-config FILE   map builder options YAML (default: the built-in defaults, which\n"
-         "                      are config/map_builder.yaml)\n";
+         "                      are config/map_builder.yaml)\n"
+         "  --initial-state FILE  start from the state of FILE at the first frame instead of\n"
+         "                      initializing from the sensors: an ASL ground truth CSV\n"
+         "                      (state_groundtruth_estimate0/data.csv: pose, velocity, biases)\n"
+         "                      or any TUM/EuRoC trajectory of T_W_I (velocity from position\n"
+         "                      differences, biases 0); W must be gravity-aligned (z up). The\n"
+         "                      output is then in W. Default: a static start (IMU at rest) or\n"
+         "                      a moving start (visual-inertial alignment over the first\n"
+         "                      init.dynamic.window_s of frames; see docs/estimator.md)\n";
 }
 
 VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
@@ -70,6 +79,8 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
       o.save_map_dir = next();
     } else if (a == "--map-config") {
       o.map_config_path = next();
+    } else if (a == "--initial-state") {
+      o.initial_state_path = next();
     } else if (a == "--print-config") {
       o.print_config = arg.Flag();
     } else if (a == "--camera") {
@@ -138,6 +149,16 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     const auto& frames = dataset.cameras()[static_cast<std::size_t>(o.camera)].frames;
     const auto& imu = dataset.imu();
     const int64_t offset_ns = rig.cameras[static_cast<std::size_t>(o.camera)].time_offset_ns;
+    std::string start_note = "from the sensors";
+    if (!o.initial_state_path.empty() && !frames.empty()) {
+      estimator::GivenStateSource source;
+      const estimator::GivenState given = estimator::LoadGivenState(
+          o.initial_state_path, frames.front().t_ns + offset_ns, &source);
+      filter.StartFrom(given);
+      start_note = "given: " + o.initial_state_path + " (velocity " +
+                   (source.velocity_from_file ? "and biases from the file" : "from differences") +
+                   (source.biases_from_file ? "" : ", biases 0") + ")";
+    }
 
     // Map building (--save-map): one builder, fed the same IMU samples as the filter and the
     // filter's state at every frame with a pose. Images of the other cameras are the frames
@@ -257,8 +278,16 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
                 ? ", estimated correction " + std::to_string(filter.state().td * 1e3) + " ms"
                 : std::string())
         << "\n" << std::setprecision(2)
+        << "  start            " << start_note << "\n"
         << "  initializations  " << s.static_starts << " static, " << s.moving_starts
-        << " moving start\n"
+        << " moving (" << s.dynamic_starts << " by alignment, " << s.fallback_starts
+        << " mean-accelerometer fallback), " << s.given_starts << " given\n"
+        << "  alignment        " << s.dynamic_init.attempts << " attempts, "
+        << s.dynamic_init.accepted << " accepted; rejected: " << s.dynamic_init.too_few_features
+        << " few features, " << s.dynamic_init.low_parallax << " low parallax, "
+        << s.dynamic_init.solver_failed << " solver, " << s.dynamic_init.large_residual
+        << " residuals, " << s.dynamic_init.gravity_mismatch << " |g|, "
+        << s.dynamic_init.uncertain << " uncertain\n"
         << "  resets           " << resets << "\n";
     if (builder) {
       // The rest of the IMU stream completes the last edge.

@@ -32,6 +32,20 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("init", "sigma_extrinsic_rotation", o.init.sigma_extrinsic_rotation);
   v("init", "sigma_extrinsic_translation", o.init.sigma_extrinsic_translation);
   v("init", "sigma_time_offset", o.init.sigma_time_offset);
+  v("init.dynamic", "enabled", o.init.dynamic.enabled);
+  v("init.dynamic", "window_s", o.init.dynamic.window_s);
+  v("init.dynamic", "max_corners", o.init.dynamic.max_corners);
+  v("init.dynamic", "min_corner_distance_px", o.init.dynamic.min_corner_distance_px);
+  v("init.dynamic", "max_klt_error_px", o.init.dynamic.max_klt_error_px);
+  v("init.dynamic", "min_features", o.init.dynamic.min_features);
+  v("init.dynamic", "min_parallax_px", o.init.dynamic.min_parallax_px);
+  v("init.dynamic", "pixel_sigma", o.init.dynamic.pixel_sigma);
+  v("init.dynamic", "max_rms_px", o.init.dynamic.max_rms_px);
+  v("init.dynamic", "min_inlier_ratio", o.init.dynamic.min_inlier_ratio);
+  v("init.dynamic", "max_gravity_error", o.init.dynamic.max_gravity_error);
+  v("init.dynamic", "max_roll_pitch_sigma", o.init.dynamic.max_roll_pitch_sigma);
+  v("init.dynamic", "gyro_bias_sigma", o.init.dynamic.gyro_bias_sigma);
+  v("init.dynamic", "timeout_s", o.init.dynamic.timeout_s);
   v("noise", "bearing", o.noise.bearing);
   v("noise", "inverse_depth", o.noise.inverse_depth);
   v("noise", "extrinsic_rotation", o.noise.extrinsic_rotation);
@@ -92,6 +106,29 @@ std::string InitOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(
       ValidateNonNegative("sigma_extrinsic_translation", sigma_extrinsic_translation));
   VILMA_RETURN_IF_ERROR(ValidateNonNegative("sigma_time_offset", sigma_time_offset));
+  const std::string e = dynamic.Validate();
+  if (!e.empty()) return "dynamic." + e;
+  return "";
+}
+
+std::string DynamicInitOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(ValidatePositive("window_s", window_s));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_corners", max_corners, 3));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("min_corner_distance_px", min_corner_distance_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_klt_error_px", max_klt_error_px));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("min_features", min_features, 3));
+  if (min_features > max_corners) return "min_features: expected <= max_corners";
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("min_parallax_px", min_parallax_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("pixel_sigma", pixel_sigma));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_rms_px", max_rms_px));
+  if (!(min_inlier_ratio >= 0.0 && min_inlier_ratio <= 1.0)) {
+    return "min_inlier_ratio: expected in [0, 1]";
+  }
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_gravity_error", max_gravity_error));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_roll_pitch_sigma", max_roll_pitch_sigma));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("gyro_bias_sigma", gyro_bias_sigma));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("timeout_s", timeout_s));
+  if (timeout_s < window_s) return "timeout_s: expected >= window_s";
   return "";
 }
 

@@ -6,6 +6,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/estimator/feature_detector.h"
+#include "vilma/core/imu.h"
 
 namespace vilma::estimator {
 namespace {
@@ -18,7 +19,10 @@ double Yaw(const Eigen::Quaterniond& q_W_I) {
 }  // namespace
 
 VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions& options)
-    : rig_(rig), options_(options) {
+    : rig_(rig),
+      options_(options),
+      initializer_(rig.cameras.empty() ? CameraConfig() : rig.cameras.front(),
+                   rig.imu.gravity_magnitude, options.init.dynamic) {
   ThrowIfInvalid(options.Validate(), "filter options");
   if (camera_index < 0 || camera_index >= static_cast<int>(rig.cameras.size())) {
     throw InputError(FormatInputError("sensor rig", "cameras",
@@ -27,6 +31,7 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
   const std::string rig_error = rig.Validate();
   if (!rig_error.empty()) throw InputError(FormatInputError("sensor rig", "", rig_error));
   camera_ = rig.cameras[static_cast<std::size_t>(camera_index)];
+  initializer_ = VisualInertialInitializer(camera_, rig.imu.gravity_magnitude, options.init.dynamic);
   // The detector ranks candidates with the tracker's own patch.
   options_.features.detector.patch = options_.features.patch;
 
@@ -76,13 +81,107 @@ void VioFilter::AddImu(const ImuSample& sample) {
   }
   ++stats_.imu_samples;
   imu_.push_back(sample);
+  if (!initialized_) initializer_.AddImu(sample);
   if (!initialized_ && imu_.size() > 4000) {
     // Before initialization only the last window matters.
     imu_.erase(imu_.begin(), imu_.begin() + 2000);
   }
 }
 
-bool VioFilter::Initialize(int64_t t_ns, std::string* why_not) {
+std::string GivenState::Validate() const {
+  if (!p_W_I.allFinite() || !v_W.allFinite() || !b_g.allFinite() || !b_a.allFinite() ||
+      !q_W_I.coeffs().allFinite() || std::abs(q_W_I.norm() - 1.0) > 1e-6) {
+    return "state: expected finite values and a unit quaternion";
+  }
+  for (const double sigma :
+       {sigma_velocity, sigma_roll_pitch, sigma_yaw, sigma_gyro_bias, sigma_accel_bias}) {
+    if (!(sigma > 0.0) || !std::isfinite(sigma)) return "sigma_*: expected > 0";
+  }
+  return "";
+}
+
+void VioFilter::StartFrom(const GivenState& state) {
+  ThrowIfInvalid(state.Validate(), "given start state");
+  given_state_ = state;
+  have_given_state_ = true;
+  initialized_ = false;
+}
+
+void VioFilter::Start(int64_t t_ns, const Eigen::Quaterniond& q_W_I, const Eigen::Vector3d& p_W_I,
+                      const Eigen::Vector3d& v_W, const Eigen::Vector3d& b_g,
+                      const Eigen::Vector3d& b_a, const Eigen::Matrix<double, 12, 12>& cov12,
+                      double yaw_sigma) {
+  x_.t_ns = t_ns;
+  x_.p_W_I = p_W_I;
+  x_.v_W = v_W;
+  x_.q_W_I = q_W_I.normalized();
+  x_.b_g = b_g;
+  x_.b_a = b_a;
+  x_.q_I_C = camera_.T_I_C.rotation();
+  x_.p_I_C = camera_.T_I_C.translation();
+  x_.td = 0.0;
+  for (std::size_t i = 0; i < x_.features.size(); ++i) {
+    x_.features[i].active = false;
+    tracks_[i] = Track();
+  }
+  const InitOptions& o = options_.init;
+  P_.setZero();
+  P_.block<3, 3>(kIdxP, kIdxP) = Eigen::Matrix3d::Identity() * 1e-8;
+  // (dv, dtheta, db_g, db_a) are contiguous in the error state.
+  static_assert(kIdxQ == kIdxV + 3 && kIdxBg == kIdxV + 6 && kIdxBa == kIdxV + 9);
+  P_.block<12, 12>(kIdxV, kIdxV) = cov12;
+  // Yaw is stated about W's z axis; the error dtheta is in I: Sigma_I = R^T Sigma_W R.
+  const Eigen::Vector3d z_I = x_.q_W_I.conjugate() * Eigen::Vector3d::UnitZ();
+  P_.block<3, 3>(kIdxQ, kIdxQ) += yaw_sigma * yaw_sigma * z_I * z_I.transpose();
+  if (options_.estimate_extrinsics) {
+    P_.block<3, 3>(kIdxQIC, kIdxQIC) =
+        Eigen::Matrix3d::Identity() * o.sigma_extrinsic_rotation * o.sigma_extrinsic_rotation;
+    P_.block<3, 3>(kIdxPIC, kIdxPIC) = Eigen::Matrix3d::Identity() *
+                                        o.sigma_extrinsic_translation *
+                                        o.sigma_extrinsic_translation;
+  }
+  if (options_.estimate_time_offset) {
+    P_(kIdxTd, kIdxTd) = o.sigma_time_offset * o.sigma_time_offset;
+  }
+  frames_without_updates_ = 0;
+  initialized_ = true;
+  initializer_.Reset();
+}
+
+bool VioFilter::InitializeFromGiven(int64_t t_ns, std::string* why_not) {
+  const GivenState& g = given_state_;
+  if (t_ns < g.t_ns) {
+    *why_not = "frame before the given start state";
+    return false;
+  }
+  if (imu_.empty() || imu_.front().t_ns > g.t_ns) {
+    *why_not = "no IMU at the given start state's time";
+    return false;
+  }
+  // Carry the given state to the frame time with the IMU (biases as given).
+  ImuState s;
+  s.t_ns = g.t_ns;
+  s.q_W_I = g.q_W_I;
+  s.p_W_I = g.p_W_I;
+  s.v_W = g.v_W;
+  s.b_g = g.b_g;
+  s.b_a = g.b_a;
+  if (t_ns > g.t_ns) s = IntegrateImu(s, imu_, t_ns, rig_.imu.gravity_magnitude);
+  Eigen::Matrix<double, 12, 12> cov = Eigen::Matrix<double, 12, 12>::Zero();
+  cov.block<3, 3>(0, 0) = Eigen::Matrix3d::Identity() * g.sigma_velocity * g.sigma_velocity;
+  const Eigen::Matrix3d R = s.q_W_I.toRotationMatrix();
+  const Eigen::Vector3d tilt(g.sigma_roll_pitch, g.sigma_roll_pitch, 0.0);
+  cov.block<3, 3>(3, 3) = R.transpose() * tilt.cwiseAbs2().asDiagonal() * R;
+  cov.block<3, 3>(6, 6) = Eigen::Matrix3d::Identity() * g.sigma_gyro_bias * g.sigma_gyro_bias;
+  cov.block<3, 3>(9, 9) = Eigen::Matrix3d::Identity() * g.sigma_accel_bias * g.sigma_accel_bias;
+  Start(t_ns, s.q_W_I, s.p_W_I, s.v_W, s.b_g, s.b_a, cov, g.sigma_yaw);
+  have_given_state_ = false;  // a later reset re-initializes from the sensors
+  ++stats_.given_starts;
+  return true;
+}
+
+bool VioFilter::Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not) {
+  if (have_given_state_) return InitializeFromGiven(t_ns, why_not);
   const int64_t window_ns = static_cast<int64_t>(options_.init.window_s * 1e9);
   // Motion test on 50 ms block means: vibration (EuRoC's rotors: 0.8 m/s^2 sample std at
   // rest) averages out, a change of velocity or attitude does not.
@@ -116,11 +215,12 @@ bool VioFilter::Initialize(int64_t t_ns, std::string* why_not) {
     return false;
   }
   const Eigen::Vector3d mean_a = sum_a / count, mean_g = sum_g / count;
-  if (!mean_a.allFinite() || !mean_g.allFinite() ||
-      std::abs(mean_a.norm() - rig_.imu.gravity_magnitude) > options_.init.max_gravity_error) {
-    *why_not = "mean accelerometer is not gravity";
+  if (!mean_a.allFinite() || !mean_g.allFinite()) {
+    *why_not = "IMU samples not finite";
     return false;
   }
+  const bool gravity_like =
+      std::abs(mean_a.norm() - rig_.imu.gravity_magnitude) <= options_.init.max_gravity_error;
   double var_a = 0.0, var_g = 0.0;
   int blocks = 0;
   for (int b = 0; b < kMaxBlocks; ++b) {
@@ -130,66 +230,78 @@ bool VioFilter::Initialize(int64_t t_ns, std::string* why_not) {
     ++blocks;
   }
   const double std_a = std::sqrt(var_a / blocks), std_g = std::sqrt(var_g / blocks);
-  const bool is_static =
-      std_a < options_.init.max_static_accel_std && std_g < options_.init.max_static_gyro_std;
+  // Once a moving start is being aligned, a window that looks static (a turning point of the
+  // motion, constant velocity) does not mean rest: the alignment goes on until it succeeds or
+  // times out.
+  const bool is_static = gravity_like && std_a < options_.init.max_static_accel_std &&
+                         std_g < options_.init.max_static_gyro_std &&
+                         !initializer_.collecting();
+  const InitOptions& o = options_.init;
+
+  // Puts the start into W: yaw 0 (or the last yaw before a reset), position 0 (or the last).
+  auto into_w = [&](Eigen::Quaterniond* q, Eigen::Vector3d* v) {
+    const double yaw = have_previous_reset_pose_ ? Yaw(reset_pose_.rotation()) : 0.0;
+    const Eigen::AngleAxisd Rz(yaw - Yaw(*q), Eigen::Vector3d::UnitZ());
+    *q = (Rz * *q).normalized();
+    *v = Rz * *v;
+    return have_previous_reset_pose_ ? reset_pose_.translation() : Eigen::Vector3d::Zero();
+  };
+  if (!is_static && o.dynamic.enabled) {
+    InitialAlignment a;
+    std::string reason;
+    const bool aligned = initializer_.AddFrame(t_ns, image, &a, &reason);
+    stats_.dynamic_init = initializer_.stats();
+    if (aligned) {
+      Eigen::Quaterniond q = a.q_W_I;
+      Eigen::Vector3d v = a.v_W;
+      const Eigen::Vector3d p = into_w(&q, &v);
+      // The covariance is rotated with W's yaw change only through v (dtheta, biases are in I).
+      Eigen::Matrix<double, 12, 12> cov = a.covariance;
+      const Eigen::Matrix3d Rz = (q * a.q_W_I.conjugate()).toRotationMatrix();
+      cov.block<3, 12>(0, 0) = Rz * cov.block<3, 12>(0, 0);
+      cov.block<12, 3>(0, 0) = cov.block<12, 3>(0, 0) * Rz.transpose();
+      // Floors for what the alignment does not model (rolling shutter, time offset, the
+      // linearization): 1 cm/s, 0.2 deg, 0.002 rad/s, 0.02 m/s^2.
+      const double floors[4] = {0.01, 0.0035, 0.002, 0.02};
+      for (int i = 0; i < 12; ++i) cov(i, i) += floors[i / 3] * floors[i / 3];
+      ++stats_.moving_starts;
+      ++stats_.dynamic_starts;
+      Start(t_ns, q, p, v, a.b_g, a.b_a, cov, o.sigma_yaw);
+      return true;
+    }
+    if (initializer_.waited_s() < o.dynamic.timeout_s) {
+      *why_not = "moving start: " + reason;
+      return false;
+    }
+    initializer_.Reset();  // timed out: fall back, and start afresh after a later reset
+  }
+  if (!gravity_like) {
+    *why_not = "mean accelerometer is not gravity";
+    return false;
+  }
   if (is_static) {
     ++stats_.static_starts;
   } else {
     ++stats_.moving_starts;
+    ++stats_.fallback_starts;
   }
-
   // At rest the accelerometer measures -g in I: R_W_I mean_a is along +z of W. The minimal
   // rotation that does this fixes roll and pitch; yaw is free (set to 0, or kept on a reset).
-  Eigen::Quaterniond q_W_I = Eigen::Quaterniond::FromTwoVectors(mean_a, Eigen::Vector3d::UnitZ());
-  Eigen::Vector3d p_W_I = Eigen::Vector3d::Zero();
-  if (have_previous_reset_pose_) {
-    q_W_I = Eigen::AngleAxisd(Yaw(reset_pose_.rotation()) - Yaw(q_W_I),
-                              Eigen::Vector3d::UnitZ()) *
-            q_W_I;
-    p_W_I = reset_pose_.translation();
-  } else {
-    q_W_I = Eigen::AngleAxisd(-Yaw(q_W_I), Eigen::Vector3d::UnitZ()) * q_W_I;
-  }
-  x_.t_ns = t_ns;
-  x_.p_W_I = p_W_I;
-  x_.v_W.setZero();
-  x_.q_W_I = q_W_I.normalized();
-  // A moving start cannot separate the gyro bias from the rotation: start at zero.
-  x_.b_g = is_static ? mean_g : Eigen::Vector3d::Zero();
-  x_.b_a.setZero();
-  x_.q_I_C = camera_.T_I_C.rotation();
-  x_.p_I_C = camera_.T_I_C.translation();
-  x_.td = 0.0;
-  for (std::size_t i = 0; i < x_.features.size(); ++i) {
-    x_.features[i].active = false;
-    tracks_[i] = Track();
-  }
-  const InitOptions& o = options_.init;
-  P_.setZero();
-  P_.block<3, 3>(kIdxP, kIdxP) = Eigen::Matrix3d::Identity() * 1e-8;
+  Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(mean_a, Eigen::Vector3d::UnitZ());
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  const Eigen::Vector3d p = into_w(&q, &v);
+  Eigen::Matrix<double, 12, 12> cov = Eigen::Matrix<double, 12, 12>::Zero();
   const double sv = is_static ? o.sigma_velocity_static : o.sigma_velocity_moving;
-  P_.block<3, 3>(kIdxV, kIdxV) = Eigen::Matrix3d::Identity() * sv * sv;
-  // Roll/pitch/yaw uncertainty is stated in W; the error dtheta is in I: Sigma_I = R^T Sigma_W R.
-  const Eigen::Matrix3d R = x_.q_W_I.toRotationMatrix();
-  const Eigen::Vector3d sigma_W(o.sigma_roll_pitch, o.sigma_roll_pitch, o.sigma_yaw);
-  P_.block<3, 3>(kIdxQ, kIdxQ) =
-      R.transpose() * sigma_W.cwiseAbs2().asDiagonal() * R;
-  P_.block<3, 3>(kIdxBg, kIdxBg) =
-      Eigen::Matrix3d::Identity() * o.sigma_gyro_bias * o.sigma_gyro_bias;
-  P_.block<3, 3>(kIdxBa, kIdxBa) =
-      Eigen::Matrix3d::Identity() * o.sigma_accel_bias * o.sigma_accel_bias;
-  if (options_.estimate_extrinsics) {
-    P_.block<3, 3>(kIdxQIC, kIdxQIC) =
-        Eigen::Matrix3d::Identity() * o.sigma_extrinsic_rotation * o.sigma_extrinsic_rotation;
-    P_.block<3, 3>(kIdxPIC, kIdxPIC) = Eigen::Matrix3d::Identity() *
-                                        o.sigma_extrinsic_translation *
-                                        o.sigma_extrinsic_translation;
-  }
-  if (options_.estimate_time_offset) {
-    P_(kIdxTd, kIdxTd) = o.sigma_time_offset * o.sigma_time_offset;
-  }
-  frames_without_updates_ = 0;
-  initialized_ = true;
+  cov.block<3, 3>(0, 0) = Eigen::Matrix3d::Identity() * sv * sv;
+  // Roll/pitch uncertainty is stated in W; the error dtheta is in I: Sigma_I = R^T Sigma_W R.
+  const Eigen::Matrix3d R = q.toRotationMatrix();
+  const Eigen::Vector3d sigma_W(o.sigma_roll_pitch, o.sigma_roll_pitch, 0.0);
+  cov.block<3, 3>(3, 3) = R.transpose() * sigma_W.cwiseAbs2().asDiagonal() * R;
+  cov.block<3, 3>(6, 6) = Eigen::Matrix3d::Identity() * o.sigma_gyro_bias * o.sigma_gyro_bias;
+  cov.block<3, 3>(9, 9) = Eigen::Matrix3d::Identity() * o.sigma_accel_bias * o.sigma_accel_bias;
+  // A moving start cannot separate the gyro bias from the rotation: start at zero.
+  Start(t_ns, q, p, v, is_static ? mean_g : Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), cov,
+        o.sigma_yaw);
   return true;
 }
 
@@ -464,7 +576,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8) {
   result.t_ns = t_ns;
   if (!initialized_) {
     std::string why_not;
-    if (!Initialize(t_ns, &why_not)) {
+    if (!Initialize(t_ns, image_gray8, &why_not)) {
       ++stats_.frames_without_imu;
       return result;
     }
@@ -517,6 +629,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8) {
     result.reset = true;
     result.reset_reason = health;
     initialized_ = false;
+    initializer_.Reset();
     // Restart from the last pose that was still finite, else from the origin.
     have_previous_reset_pose_ = x_.p_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
     if (have_previous_reset_pose_) reset_pose_ = T_M_I();

@@ -188,8 +188,61 @@ TEST_CASE("a moving start initializes and tracks") {
   INFO("final position error " << error << " m, resets " << resets);
   CHECK(filter.initialized());
   CHECK(filter.stats().moving_starts == 1);
+  // By the visual-inertial alignment, not the mean-accelerometer fallback.
+  CHECK(filter.stats().dynamic_starts == 1);
+  CHECK(filter.stats().dynamic_init.accepted == 1);
   CHECK(resets == 0);
   CHECK(error < 0.1);
+  // The camera does not rotate: the attitude stays level (gravity along +z of W in I = W).
+  const Eigen::Vector3d z_I = filter.state().q_W_I.conjugate() * Eigen::Vector3d::UnitZ();
+  CHECK(std::acos(std::min(1.0, z_I.z())) < 0.5 * 3.14159265358979 / 180.0);
+}
+
+TEST_CASE("without the alignment a moving start falls back to the mean accelerometer") {
+  Scene::StartTime() = -0.5;
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  options.init.dynamic.enabled = false;
+  VioFilter filter(TheScene().rig, 0, options);
+  int resets = 0;
+  RunConfig config;
+  config.seconds = 1.0;
+  RunScene(config, &filter, &resets);
+  Scene::StartTime() = 1.0;
+  CHECK(filter.initialized());
+  CHECK(filter.stats().fallback_starts == 1);
+  CHECK(filter.stats().dynamic_init.attempts == 0);
+}
+
+TEST_CASE("a given start state is used at the first frame, carried there by the IMU") {
+  // Moving from the start; the given state is the truth 20 ms before the first frame.
+  Scene::StartTime() = -0.5;
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  VioFilter filter(TheScene().rig, 0, options);
+  GivenState given;
+  given.t_ns = -20'000'000;
+  given.p_W_I = Scene::Position(-0.02);
+  const double tau = -0.02 + 0.5;
+  given.v_W = Eigen::Vector3d(0.4 * 2.0 * std::sin(2.0 * tau), 0.2 * 1.3 * std::sin(1.3 * tau), 0);
+  filter.StartFrom(given);
+  for (int64_t t = -40'000'000; t <= 5'000'000; t += 5'000'000) filter.AddImu(Scene::Imu(t));
+  const FrameResult first = filter.AddImage(0, TheScene().Render(0.0));
+  Scene::StartTime() = 1.0;
+  REQUIRE(first.pose_valid);
+  CHECK(first.initialized_now);
+  CHECK(filter.stats().given_starts == 1);
+  // The state at t = 0: the given position and velocity carried 20 ms by exact IMU.
+  Scene::StartTime() = -0.5;
+  CHECK((filter.state().p_W_I - Scene::Position(0.0)).norm() < 1e-4);
+  const Eigen::Vector3d v_true(0.4 * 2.0 * std::sin(1.0), 0.2 * 1.3 * std::sin(0.65), 0);
+  CHECK((filter.state().v_W - v_true).norm() < 1e-3);
+  Scene::StartTime() = 1.0;
+  GivenState bad;
+  bad.sigma_velocity = 0.0;
+  CHECK_THROWS_WITH(filter.StartFrom(bad), Catch::Contains("sigma"));
 }
 
 TEST_CASE("a diverging filter is detected, reset and re-initialized") {

@@ -3,6 +3,7 @@
 //
 //   vilma vio DATASET [--config FILE] [--rig RIG.yaml] [--camera INDEX] --out TRAJ.txt
 //             [--log-timing FILE] [--save-map DIR [--map-config FILE]]
+//             [--initial-state GT_FILE]
 //
 // Rig: --rig, else DATASET/rig.yaml if present (the simulator writes one), else the EuRoC
 // sensor.yaml files of DATASET. Writes T_M_I of every frame as TUM text (t in seconds, IMU
@@ -32,6 +33,8 @@ struct VioCommandOptions {
   std::string save_map_dir;     // --save-map, empty: no map
   // --map-config, empty: built-in defaults (= config/map_builder.yaml)
   std::string map_config_path;
+  // --initial-state, empty: initialize from the sensors (static or moving start)
+  std::string initial_state_path;
   bool help = false;
 };
 

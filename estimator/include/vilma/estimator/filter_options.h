@@ -12,6 +12,26 @@
 
 namespace vilma::estimator {
 
+// Moving start: visual-inertial alignment over the first frames (vi_initializer.h,
+// docs/estimator.md, "Moving start").
+struct DynamicInitOptions {
+  bool enabled = true;  // false: a moving start takes roll/pitch from the mean accelerometer
+  double window_s = 1.0;           // frames aligned together (the newest this long) [s]
+  int max_corners = 150;           // tracked corners (KLT) [count]
+  double min_corner_distance_px = 20.0;  // spacing of new corners [px]
+  double max_klt_error_px = 1.0;   // forward-backward tracking check [px]
+  int min_features = 20;           // features seen in >= 3 frames of the window [count]
+  double min_parallax_px = 10.0;   // median rotation-compensated feature motion [px]
+  double pixel_sigma = 1.0;        // observation noise of a tracked corner [px]
+  double max_rms_px = 1.5;         // accept: RMS of the inlier bearing errors below [px]
+  double min_inlier_ratio = 0.8;   // accept: observations within 3 sigma, at least [0..1]
+  double max_gravity_error = 1.0;  // accept: | |unconstrained g| - g | below [m/s^2]
+  double max_roll_pitch_sigma = 0.02;  // accept: gravity direction std below [rad]
+  double gyro_bias_sigma = 0.1;    // prior std of the gyroscope bias [rad/s]
+  double timeout_s = 3.0;          // then fall back to the mean accelerometer [s]
+  std::string Validate() const;
+};
+
 // Initialization from the first IMU samples (docs/estimator.md, "Initialization").
 struct InitOptions {
   double window_s = 0.5;  // IMU averaging window before the first frame (half needed) [s]
@@ -31,6 +51,7 @@ struct InitOptions {
   double sigma_extrinsic_rotation = 0.01;     // if estimated [rad]
   double sigma_extrinsic_translation = 0.01;  // if estimated [m]
   double sigma_time_offset = 0.005;           // if estimated [s]
+  DynamicInitOptions dynamic;
   std::string Validate() const;
 };
 

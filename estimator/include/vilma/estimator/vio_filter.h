@@ -21,6 +21,7 @@
 #include "vilma/estimator/image_pyramid.h"
 #include "vilma/estimator/multilevel_patch.h"
 #include "vilma/estimator/propagation.h"
+#include "vilma/estimator/vi_initializer.h"
 
 namespace vilma::estimator {
 
@@ -47,9 +48,33 @@ struct FilterStats {
   int64_t frames_without_imu = 0; // frames before enough IMU for initialization
   int64_t resets = 0;
   int64_t static_starts = 0;      // initializations classified static / moving
-  int64_t moving_starts = 0;
+  int64_t moving_starts = 0;      // = dynamic_starts + fallback_starts
+  int64_t dynamic_starts = 0;     // moving start by visual-inertial alignment
+  int64_t fallback_starts = 0;    // moving start from the mean accelerometer (alignment off or
+                                  // timed out: roll/pitch biased by the acceleration)
+  int64_t given_starts = 0;       // StartFrom() states used
+  InitializerStats dynamic_init;  // alignment attempts and their rejections
   int64_t updates = 0;
   int64_t rejections = 0;
+};
+
+// A start from a known state (ground truth or a previous run: the usual way to evaluate VIO),
+// in the filter's frame W (gravity along -z, g from the rig).
+struct GivenState {
+  int64_t t_ns = 0;  // IMU clock; the filter starts at the first frame at or after it
+  Eigen::Quaterniond q_W_I = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d p_W_I = Eigen::Vector3d::Zero();  // [m]
+  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();    // [m/s]
+  Eigen::Vector3d b_g = Eigen::Vector3d::Zero();    // [rad/s]
+  Eigen::Vector3d b_a = Eigen::Vector3d::Zero();    // [m/s^2]
+  // Standard deviations of the start (how far the given state is to be trusted).
+  double sigma_velocity = 0.05;     // [m/s]
+  double sigma_roll_pitch = 0.005;  // [rad]
+  double sigma_yaw = 1e-3;          // [rad]
+  double sigma_gyro_bias = 0.005;   // [rad/s]
+  double sigma_accel_bias = 0.05;   // [m/s^2]
+  // Empty if valid, else "field: expectation".
+  std::string Validate() const;
 };
 
 class VioFilter {
@@ -67,6 +92,10 @@ class VioFilter {
   // the same reset as a failed check (FrameResult::reset, re-initialization from the last
   // pose). For fault injection and tests (vilma-estimatord --fault-reset-filter-at).
   void RequestReset(const std::string& reason) { requested_reset_ = reason; }
+  // Starts (or restarts) the filter from `state` instead of the IMU-based initialization: the
+  // first frame at or after state.t_ns initializes, with the state carried to the frame time by
+  // the buffered IMU. Throws InputError if the state is invalid.
+  void StartFrom(const GivenState& state);
 
   bool initialized() const { return initialized_; }
   const FilterState& state() const { return x_; }
@@ -83,7 +112,13 @@ class VioFilter {
     int age = 0;
   };
 
-  bool Initialize(int64_t t_ns, std::string* why_not);
+  bool Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not);
+  bool InitializeFromGiven(int64_t t_ns, std::string* why_not);
+  // Sets the state and the core covariance; cov12 is over (dv, dtheta, db_g, db_a), yaw_sigma
+  // is added about W's z axis.
+  void Start(int64_t t_ns, const Eigen::Quaterniond& q_W_I, const Eigen::Vector3d& p_W_I,
+             const Eigen::Vector3d& v_W, const Eigen::Vector3d& b_g, const Eigen::Vector3d& b_a,
+             const Eigen::Matrix<double, 12, 12>& cov12, double yaw_sigma);
   void Propagate(int64_t t_ns);
   bool UpdateFeature(int slot);
   void AddFeatures();
@@ -112,6 +147,9 @@ class VioFilter {
   bool have_previous_reset_pose_ = false;
   Transformation reset_pose_;
   std::string requested_reset_;  // RequestReset(): applied at the next health check
+  VisualInertialInitializer initializer_;
+  bool have_given_state_ = false;
+  GivenState given_state_;
 
   // Preallocated work (hot loops are allocation-free after the first frames).
   ImagePyramid pyramid_;
