@@ -1,0 +1,181 @@
+#!/bin/bash
+# Crash campaign (issue 18, docs/reliability.md): power loss and kill -9 at random points of
+# the mission stream and of a map save, and the checks that nothing acknowledged is lost.
+#
+# Stream runs: vilma-mission-sender (the mission-stream client of vilma-estimatord, the same
+# MissionStreamSender code) streams a synthetic mission to vilma-mapstored over LCM loopback
+# (ttl=0, a port per run). Odd runs SIGKILL vilma-mapstored at a uniformly random time and
+# restart it (the sender retransmits): the finished map must hold every vertex of the mission.
+# Even runs SIGKILL the sender: mapstored finalizes an incomplete mission, which must hold every
+# vertex the sender saw acknowledged ("acked N" = chunks 0..N durable). Every map must load and
+# pass check_map_consistency.
+# Save runs: `vilma console` loads a map, changes it (keyframing) and saves it over itself; it
+# is SIGKILLed at a uniformly random time during the command; the folder must then load as the
+# previous generation or the new one, never broken.
+#
+# Usage: scripts/crash-campaign.sh [--runs N] [--save-runs N] [--seed S]
+#   --runs N       stream runs (default 100), alternating mapstored / sender kills
+#   --save-runs N  save runs (default 100)
+#   --seed S       of the kill times (default 1; the same seed gives the same kill times)
+#   VILMA_BUILD_DIR  build folder (default <repo>/build); work in ~/.cache/vilma/crash-campaign
+set -euo pipefail
+
+repo_dir=$(cd "$(dirname "$0")/.." && pwd)
+bin=${VILMA_BUILD_DIR:-$repo_dir/build}/bin
+work=${VILMA_CRASH_DIR:-$HOME/.cache/vilma/crash-campaign}
+runs=100
+save_runs=100
+seed=1
+while [ $# -gt 0 ]; do
+  case "$1" in
+    --runs) runs=$2; shift 2 ;;
+    --save-runs) save_runs=$2; shift 2 ;;
+    --seed) seed=$2; shift 2 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    *) echo "crash-campaign.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
+  esac
+done
+for n in "$runs" "$save_runs" "$seed"; do
+  [[ "$n" =~ ^[0-9]+$ ]] || { echo "crash-campaign.sh: expected a non-negative integer, got '$n'" >&2; exit 2; }
+done
+for p in vilma-mapstored vilma-mission-sender vilma; do
+  [ -x "$bin/$p" ] || { echo "crash-campaign.sh: $bin/$p not built" >&2; exit 1; }
+done
+rm -rf "$work"
+mkdir -p "$work"
+RANDOM=$seed
+
+# Uniform random milliseconds in [lo, hi].
+random_ms() { echo $(( $1 + (RANDOM * 32768 + RANDOM) % ($2 - $1 + 1) )); }
+sleep_ms() { sleep "$(awk "BEGIN { print $1 / 1000 }")"; }
+last_ack() { { grep -o 'acked [0-9]*' "$1" || true; } | awk '{ if ($2 > m) m = $2 } END { print (m == "" ? -1 : m) }'; }
+# "vertices consistent" of a map folder, or "unloadable".
+check_map() {
+  local out
+  if out=$("$bin/vilma" console "$1" -c "map_stats; cmc" 2>&1) && grep -q "map is consistent" <<< "$out"; then
+    awk '$1 == "total" { print $4 }' <<< "$out"
+  else
+    echo unloadable
+  fi
+}
+
+vertices=60
+declare -A lost=([mapstored]=0 [sender]=0) unloadable=([mapstored]=0 [sender]=0)
+stream_failed=0
+mapstored_kills=0; sender_kills=0
+for run in $(seq 1 "$runs"); do
+  dir=$work/stream-$run
+  mkdir -p "$dir"
+  port=$(( 20000 + (run * 7 + seed) % 40000 ))
+  url="udpm://239.255.76.67:$port?ttl=0"
+  printf 'incomplete_timeout_s: 1.0\n' > "$dir/mapstored.yaml"
+  "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" --config "$dir/mapstored.yaml" \
+    > "$dir/mapstored1.log" 2>&1 &
+  store=$!
+  for _ in $(seq 50); do grep -q ready "$dir/mapstored1.log" && break; sleep 0.1; done
+  kill_at=$(random_ms 50 1400)  # the mission takes about 1.5 s at 40 vertices/s
+  if [ $((run % 2)) -eq 1 ]; then
+    mapstored_kills=$((mapstored_kills + 1))
+    "$bin/vilma-mission-sender" --lcm-url "$url" --name crash --seed "$run" --vertices $vertices \
+      --keypoints 40 --rate 40 --max-retransmit-timeout 0.3 --end-timeout 30 > "$dir/sender.log" 2>&1 &
+    sender=$!
+    sleep_ms "$kill_at"
+    kill -9 $store 2> /dev/null || true
+    wait $store 2> /dev/null || true
+    sleep_ms "$(random_ms 0 500)"
+    "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" --config "$dir/mapstored.yaml" \
+      > "$dir/mapstored2.log" 2>&1 &
+    store=$!
+    if ! wait $sender; then stream_failed=$((stream_failed + 1)); fi
+    expected=$vertices
+  else
+    sender_kills=$((sender_kills + 1))
+    "$bin/vilma-mission-sender" --lcm-url "$url" --name crash --seed "$run" --vertices $vertices \
+      --keypoints 40 --rate 40 --no-end > "$dir/sender.log" 2>&1 &
+    sender=$!
+    sleep_ms "$kill_at"
+    kill -9 $sender 2> /dev/null || true
+    wait $sender 2> /dev/null || true
+    # One vertex per chunk after the BEGIN chunk 0 (which holds the first vertex as well).
+    expected=$(( $(last_ack "$dir/sender.log") + 1 ))
+    for _ in $(seq 60); do grep -q "finalized" "$dir"/mapstored*.log && break; sleep 0.1; done
+  fi
+  kill -TERM $store 2> /dev/null || true
+  wait $store 2> /dev/null || true
+  got=0
+  [ -d "$dir/maps/crash" ] && got=$(check_map "$dir/maps/crash")
+  if [ "$expected" -le 0 ] && [ ! -d "$dir/maps/crash" ]; then
+    got=0  # killed before the first acknowledgement: nothing was promised
+  fi
+  killed=$([ $((run % 2)) -eq 1 ] && echo mapstored || echo sender)
+  if [ "$got" = unloadable ]; then
+    unloadable[$killed]=$((${unloadable[$killed]} + 1)); status="UNLOADABLE"
+  elif [ "$got" -lt "$expected" ]; then
+    lost[$killed]=$((${lost[$killed]} + expected - got)); status="LOST $((expected - got))"
+  else
+    status=ok
+  fi
+  echo "stream run $run: kill $killed at ${kill_at} ms, acknowledged $expected, stored $got: $status" >> "$work/runs.log"
+  [ "$status" = ok ] && rm -rf "$dir"
+done
+
+# Save runs: a map to save over, made by one clean stream run.
+save_lost=0; save_unloadable=0; save_old=0; save_new=0
+if [ "$save_runs" -gt 0 ]; then
+  dir=$work/save-source
+  mkdir -p "$dir"
+  url="udpm://239.255.76.67:$(( 61000 + seed % 1000 ))?ttl=0"
+  "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" > "$dir/mapstored.log" 2>&1 &
+  store=$!
+  for _ in $(seq 50); do grep -q ready "$dir/mapstored.log" && break; sleep 0.1; done
+  "$bin/vilma-mission-sender" --lcm-url "$url" --name source --seed 99 --vertices 400 \
+    --keypoints 200 --rate 2000 --end-timeout 60 > "$dir/sender.log" 2>&1
+  kill -TERM $store; wait $store || true
+  before=$(check_map "$dir/maps/source")
+  # Every 4th vertex kept, so that the new generation differs from the previous one.
+  save_commands="kfh --kf_distance_threshold_m 1000 --kf_rotation_threshold_deg 180 --kf_every_nth_vertex 4 --kf_min_shared_landmarks_obs 0; save --overwrite"
+  # The command's duration and the save's share of it, to spread the kills over the save.
+  cp -r "$dir/maps/source" "$work/timing-map"
+  start=$(date +%s%N)
+  "$bin/vilma" console "$work/timing-map" -c "$save_commands" > "$work/timing.log" 2>&1
+  command_ms=$(( ($(date +%s%N) - start) / 1000000 ))
+  after=$(check_map "$work/timing-map")
+  save_ms=$(awk '/\(save: / { gsub(/[()s:]/, ""); print int($2 * 1000) }' "$work/timing.log")
+  save_ms=${save_ms:-$command_ms}
+  kill_from_ms=$(( command_ms > save_ms + 100 ? command_ms - save_ms - 100 : 0 ))
+  rm -rf "$work/timing-map"
+  for run in $(seq 1 "$save_runs"); do
+    map=$work/save-$run
+    rm -rf "$map"
+    cp -r "$dir/maps/source" "$map"
+    "$bin/vilma" console "$map" -c "$save_commands" > "$work/save-$run.log" 2>&1 &
+    console=$!
+    sleep_ms "$(random_ms "$kill_from_ms" "$command_ms")"
+    kill -9 $console 2> /dev/null || true
+    wait $console 2> /dev/null || true
+    got=$(check_map "$map")
+    if [ "$got" = unloadable ]; then
+      save_unloadable=$((save_unloadable + 1)); status=UNLOADABLE
+    elif [ "$got" = "$before" ]; then
+      save_old=$((save_old + 1)); status="previous generation"
+    elif [ "$got" = "$after" ]; then
+      save_new=$((save_new + 1)); status="new generation"
+    else
+      save_lost=$((save_lost + 1)); status="UNEXPECTED ($got vertices)"
+    fi
+    echo "save run $run: $status" >> "$work/runs.log"
+    case "$status" in UNLOADABLE|UNEXPECTED*) ;; *) rm -rf "$map" "$work/save-$run.log" ;; esac
+  done
+fi
+
+echo "| campaign | runs | acknowledged vertices lost | unloadable maps | other |"
+echo "|---|---:|---:|---:|---|"
+echo "| kill -9 of vilma-mapstored mid-stream, restart | $mapstored_kills | ${lost[mapstored]} | ${unloadable[mapstored]} | missions not finished after the restart: $stream_failed |"
+echo "| kill -9 of the sender mid-stream | $sender_kills | ${lost[sender]} | ${unloadable[sender]} | |"
+if [ "$save_runs" -gt 0 ]; then
+  echo "| kill -9 during \`kfh; save --overwrite\` (kills in the last $((command_ms - kill_from_ms)) ms of $command_ms ms; $before -> $after vertices) | $save_runs | - | $save_unloadable | previous generation $save_old, new generation $save_new, neither $save_lost |"
+fi
+echo "(details: $work/runs.log)"
+[ $((${lost[mapstored]} + ${lost[sender]} + ${unloadable[mapstored]} + ${unloadable[sender]})) -eq 0 ] && \
+  [ $stream_failed -eq 0 ] && \
+  [ $save_unloadable -eq 0 ] && [ $save_lost -eq 0 ]
