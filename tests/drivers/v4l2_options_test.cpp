@@ -7,6 +7,9 @@
 #ifdef VILMA_HAVE_DRIVER_V4L2
 #include <linux/videodev2.h>
 
+#include <fstream>
+#include <sstream>
+
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
 #include "vilma/drivers/v4l2/v4l2_options.h"
@@ -180,6 +183,31 @@ TEST_CASE("v4l2 the effective options (--print-config) read back as the same opt
   CHECK(back.capture.format.fourccs == o.capture.format.fourccs);
   CHECK(back.capture.controls.controls == o.capture.controls.controls);
   CHECK(back.DataChannel() == "CAM0_X");
+}
+
+TEST_CASE("v4l2 the systemd unit's command line is one vilma-v4l2 accepts", "[v4l2]") {
+  const std::string unit_path =
+      std::string(VILMA_SOURCE_DIR) + "/config/systemd/vilma-v4l2@.service";
+  std::ifstream unit(unit_path);
+  REQUIRE(unit);
+  std::string line, exec;
+  while (std::getline(unit, line)) {
+    if (line.rfind("ExecStart=", 0) == 0) exec = line.substr(10);
+  }
+  REQUIRE(!exec.empty());
+  // The installed paths replaced by the repository's, %f by a by-id link.
+  std::istringstream words(exec);
+  std::vector<std::string> args;
+  std::string word;
+  words >> word;  // the program
+  CHECK(word == "/usr/local/bin/vilma-v4l2");
+  while (words >> word) {
+    if (word == "/etc/vilma/v4l2.yaml") word = std::string(VILMA_SOURCE_DIR) + "/config/v4l2.yaml";
+    if (word == "%f") word = "/dev/v4l/by-id/usb-cam-video-index0";
+    args.push_back(word);
+  }
+  const V4l2DriverOptions o = FromArgs(args);
+  CHECK(o.capture.device == "/dev/v4l/by-id/usb-cam-video-index0");
 }
 
 TEST_CASE("v4l2 the usage text (--help) names every flag the parser knows", "[v4l2]") {
