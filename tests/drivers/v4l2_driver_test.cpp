@@ -123,7 +123,7 @@ TEST_CASE("vilma-v4l2 --help, usage errors, bad config, --list", "[v4l2][program
   const std::string config = dir + "/v4l2_bad.yaml";
   std::ofstream(config) << "device: /dev/video0\nexposure_us: 100\n";
   test::ChildProcess bad({kProgram, "--config", config}, dir + "/v4l2_bad.out");
-  CHECK(bad.Wait(10) == kExitInputError);
+  CHECK(bad.Wait(10) == kExitUsage);
   CHECK(test::ReadTextFile(dir + "/v4l2_bad.out").find(config + ": exposure_us: no such key") !=
         std::string::npos);
 
@@ -136,7 +136,7 @@ TEST_CASE("vilma-v4l2 --help, usage errors, bad config, --list", "[v4l2][program
   test::ChildProcess absent(
       {kProgram, "--device", "/dev/video-vilma-absent", "--lcm-url", "memq://"},
       dir + "/v4l2_absent.out");
-  CHECK(absent.Wait(10) == kExitInputError);
+  CHECK(absent.Wait(10) == kExitRuntime);
   CHECK(test::ReadTextFile(dir + "/v4l2_absent.out")
             .find("/dev/video-vilma-absent: an existing V4L2 device") != std::string::npos);
 }
@@ -214,7 +214,7 @@ TEST_CASE("vilma-v4l2 --device /dev/video0 --seconds 2 on a real camera", "[v4l2
   bus.Drain(&driver, 20.0);
   const int status = driver.Wait(5);
   INFO(test::ReadTextFile(out));
-  if (status == kExitInputError &&
+  if (status == kExitRuntime &&
       test::ReadTextFile(out).find("not a video capture node") != std::string::npos) {
     VILMA_SKIP_OPTIONAL("/dev/video0 is not a capture node");
   }

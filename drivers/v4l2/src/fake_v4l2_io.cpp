@@ -220,6 +220,10 @@ struct FakeV4l2Io::State {
     }
   }
 
+  std::vector<std::vector<uint8_t>> jpeg_cache;  // encoded MJPG frames by pattern phase
+  uint32_t jpeg_cache_width = 0;
+  uint32_t jpeg_cache_height = 0;
+
   void FillBuffer(Buffer* buffer, int64_t sequence) {
     const cv::Mat pattern =
         FakeFramePattern(sequence, static_cast<int>(format.width), static_cast<int>(format.height));
@@ -245,9 +249,19 @@ struct FakeV4l2Io::State {
       }
     }
     if (format.pixelformat == V4L2_PIX_FMT_MJPEG) {
-      std::vector<uint8_t> jpeg;
-      cv::imencode(".jpg", pattern, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
-      if (spec.mjpg_without_huffman_tables) jpeg = StripHuffmanTables(jpeg);
+      // A camera encodes in hardware: the fake encodes each of the pattern's 128 phases once,
+      // so that its own encoding time does not show up as the driver's latency.
+      const std::size_t phase = static_cast<std::size_t>(sequence % 128);
+      if (jpeg_cache_width != format.width || jpeg_cache_height != format.height) {
+        jpeg_cache.assign(128, {});
+        jpeg_cache_width = format.width;
+        jpeg_cache_height = format.height;
+      }
+      std::vector<uint8_t>& jpeg = jpeg_cache[phase];
+      if (jpeg.empty()) {
+        cv::imencode(".jpg", pattern, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+        if (spec.mjpg_without_huffman_tables) jpeg = StripHuffmanTables(jpeg);
+      }
       used = std::min(jpeg.size(), buffer->memory.size());
       std::memcpy(out, jpeg.data(), used);
     }

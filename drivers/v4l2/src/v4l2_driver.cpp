@@ -76,9 +76,9 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
   } catch (const UsageError& e) {
     std::cerr << kProgram << ": " << e.what() << "\n(see " << kProgram << " --help)\n";
     return kExitUsage;
-  } catch (const InputError& e) {
+  } catch (const InputError& e) {  // the options file
     std::cerr << kProgram << ": " << e.what() << "\n";
-    return kExitInputError;
+    return kExitUsage;
   }
   if (options.print_config) {
     std::cout << V4l2OptionsYaml(options);
@@ -94,7 +94,7 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
   if (options.list) {
     int capture_nodes = 0;
     std::cout << ListDevices(io.get(), &capture_nodes);
-    return capture_nodes > 0 ? kExitOk : kExitInputError;
+    return capture_nodes > 0 ? kExitOk : kExitRuntime;
   }
 
   const std::string url = ResolveLcmUrl(options.lcm_url);
@@ -102,7 +102,7 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
   if (!lcm.good()) {
     std::cerr << kProgram << ": " << FormatInputError("--lcm-url", url, "a URL LCM can open")
               << "\n";
-    return kExitInputError;
+    return kExitRuntime;
   }
   DriverStatus status(kProgram);
   StatusPublisher status_publisher(&status, &lcm, options.StatusChannel(), options.status_period_s);
@@ -117,7 +117,7 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
     std::cerr << kProgram << ": " << e.what() << "\n";
     status.SetState(status_t::ERROR, e.what());
     status_publisher.PublishNow();
-    return kExitInputError;
+    return kExitRuntime;
   }
   status_publisher.Start();
   Notify("READY=1");

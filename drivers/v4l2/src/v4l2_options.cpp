@@ -261,8 +261,9 @@ Options (each overrides the same field of --config; defaults in brackets):
   --print-config        print the effective options as YAML and exit
   --help                this text
 
-Exit status: 0 success, 1 bad configuration or a camera that cannot be opened or cannot
-deliver what is asked (the message says what it offers), 2 a bad command line.
+Exit status: 0 success (also after SIGINT/SIGTERM or --seconds), 1 a camera that cannot be
+opened or cannot deliver what is asked (the message says what it offers) or LCM unusable;
+--list: no capture device; 2 a bad command line or options file.
 )";
 }
 

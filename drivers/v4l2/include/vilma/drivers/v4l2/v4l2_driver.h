@@ -13,8 +13,9 @@
 namespace vilma::v4l2 {
 
 constexpr int kExitOk = 0;
-constexpr int kExitInputError = 1;  // bad config, camera absent or unable to do what is asked
-constexpr int kExitUsage = 2;       // bad command line
+// Exit status, as the other drivers (docs/drivers.md): 2 is not worth a systemd restart.
+constexpr int kExitRuntime = 1;  // camera absent or unable to do what is asked, LCM unusable
+constexpr int kExitUsage = 2;    // bad command line or options file
 
 // Keeps image_t.seq continuous for receivers: seq = the kernel's buffer sequence plus an
 // offset that is re-chosen when the kernel's counter restarts (a new stream after a
