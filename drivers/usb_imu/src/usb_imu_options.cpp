@@ -294,6 +294,16 @@ UsbImuCommandLine ParseUsbImuCommandLine(int argc, const char* const* argv) {
       o.status_channel = arg.Value();
     } else if (name == "--seconds") {
       o.seconds = arg.DoubleValue();
+    } else if (name == "--status-period-s") {
+      o.status_period_s = arg.DoubleValue();
+    } else if (name == "--stall-timeout-s") {
+      o.stall_timeout_s = arg.DoubleValue();
+    } else if (name == "--reconnect-max-backoff-s") {
+      o.reconnect_max_backoff_s = arg.DoubleValue();
+    } else if (name == "--command-timeout-ms") {
+      o.command_timeout_ms = arg.IntValue();
+    } else if (name == "--command-retries") {
+      o.command_retries = arg.IntValue();
     } else if (name == "--list") {
       cl.list = arg.Flag();
     } else if (name == "--print-config") {
@@ -332,6 +342,8 @@ Options (flags override --config; defaults in brackets):
                             (needs --time-source device) [1]
   --family gx5|cv7          MIP command dialect and timestamp field [)" << d.family << R"(]
   --no-configure            do not configure the device; take its stream as it comes
+  --command-timeout-ms MS   wait for each command's ACK [)" << d.command_timeout_ms << R"(]
+  --command-retries N       tries per command [)" << d.command_retries << R"(]
   --rate-hz R               sample rate: base rate / integer decimation [)" << d.rate_hz << R"(]
   --lowpass auto|off|manual accel and gyro low-pass filter [)" << d.lowpass << R"(]
   --lowpass-cutoff-hz F     cutoff with --lowpass manual
@@ -343,7 +355,11 @@ Options (flags override --config; defaults in brackets):
   --channel NAME            imu_t channel [IMU]
   --channel-suffix S        appended to every channel name
   --status-channel NAME     status_t channel [VILMA_STATUS_<channel>]
+  --status-period-s S       status report period [)" << d.status_period_s << R"(]
   --seconds N               stop after N seconds (0 = until SIGINT/SIGTERM) [0]
+  --stall-timeout-s S       no sample for this long: status DEGRADED [)" << d.stall_timeout_s << R"(]
+  --reconnect-max-backoff-s S
+                            reopen tries back off from 0.1 s to this [)" << d.reconnect_max_backoff_s << R"(]
   --print-config            print the effective options as YAML and exit
   --help                    this text
 
