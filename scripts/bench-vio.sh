@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # VIO benchmark: runs `vilma vio` and `vilma eval --align posyaw` over the synthetic benchmark
-# sets of scripts/make-datasets.sh and the real static EuRoC slice, and prints one table
-# (docs/benchmarks.md, "VIO"). Sets that do not exist are listed as missing.
+# sets of scripts/make-datasets.sh and the real EuRoC slices (static start; moving start from
+# the sensors, and from the ground-truth state with --initial-state: the row "+given"), and
+# prints one table (docs/benchmarks.md, "VIO"). Sets that do not exist are listed as missing.
 #
 # Usage: scripts/bench-vio.sh [--config FILE] [--keep DIR]
 #   VILMA_BUILD_DIR  build folder with bin/vilma (default <repo>/build)
@@ -9,8 +10,9 @@
 #   VILMA_SHARED_DATA_DIR  real data (default <repo>/../shared/data)
 # Columns: duration [s], ground-truth path length [m], ATE RMSE [m] and in % of the path,
 # ATE max [m], worst roll/pitch error [deg] (gravity direction in the body frame, independent of
-# the yaw alignment), per-frame filter time p50/p99 [ms] (one core, images loaded outside the
-# timing), real-time factor of the whole run (wall time including PNG decoding).
+# the yaw alignment; `vilma eval`'s roll/pitch), per-frame filter time p50/p99 [ms] (one core,
+# images loaded outside the timing), real-time factor of the whole run (wall time including PNG
+# decoding), resets, how the filter started and the first pose's delay after the first frame.
 set -euo pipefail
 
 repo_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -24,7 +26,7 @@ while [[ $# -gt 0 ]]; do
   case "$1" in
     --config) config_args=(--config "$2"); shift 2 ;;
     --keep) keep="$2"; shift 2 ;;
-    -h|--help) sed -n '2,14p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,16p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-vio.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -34,14 +36,17 @@ work="${keep:-$(mktemp -d /tmp/vilma-bench-vio.XXXXXX)}"
 mkdir -p "$work"
 [[ -n "$keep" ]] || trap 'rm -rf "$work"' EXIT
 
-names=(room-easy room-fast hall street euroc_V1_01_micro)
+names=(room-easy room-fast hall street euroc_V1_01_micro euroc_V1_01_moving euroc_V1_01_moving+given)
 rows=()
 missing=()
 for name in "${names[@]}"; do
-  if [[ "$name" == euroc_* ]]; then dir="$shared_dir/$name"; else dir="$datasets_dir/$name"; fi
+  set_name="${name%+given}"
+  if [[ "$name" == euroc_* ]]; then dir="$shared_dir/$set_name"; else dir="$datasets_dir/$set_name"; fi
   if [[ ! -d "$dir/mav0" ]]; then missing+=("$name ($dir)"); continue; fi
   gt="$dir/mav0/state_groundtruth_estimate0/data.csv"
-  "$vilma" vio "$dir" "${config_args[@]}" --out "$work/$name.txt" \
+  start_args=()
+  [[ "$name" == *+given ]] && start_args=(--initial-state "$gt")
+  "$vilma" vio "$dir" "${config_args[@]}" "${start_args[@]}" --out "$work/$name.txt" \
       --log-timing "$work/$name.timing.csv" > "$work/$name.vio.out" 2> "$work/$name.vio.err" || {
     echo "bench-vio.sh: vilma vio failed on $name:" >&2; cat "$work/$name.vio.err" >&2; exit 1; }
   "$vilma" eval --gt "$gt" --est "$work/$name.txt" --align posyaw --segments 1 \
@@ -54,39 +59,33 @@ text = open(vio_out).read()
 duration = float(re.search(r"duration\s+([0-9.]+) s", text).group(1))
 rtf = float(re.search(r"real-time factor\s+([0-9.]+)x", text).group(1))
 resets = int(re.search(r"resets\s+(\d+)", text).group(1))
+m = re.search(r"initializations\s+(\d+) static, (\d+) moving \((\d+) by alignment, (\d+) mean-acc\S* "
+              r"fallback\), (\d+) given", text)
+start = ("given" if int(m.group(5)) else "static" if int(m.group(1)) else
+         "aligned" if int(m.group(3)) else "fallback" if int(m.group(4)) else "?")
 ms = sorted(float(l.split(",")[1]) for l in open(timing_path).readlines()[1:])
 pct = lambda q: ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
 j = json.load(open(json_path))
 path = j["gt_path_length_m"]; rmse = j["ate"]["translation_rmse_m"]
 amax = j["ate"]["translation_max_m"]
-def gravity_in_body(w, x, y, z):  # third row of R_W_B: e_z of W seen in B
-    n = math.sqrt(w*w + x*x + y*y + z*z); w, x, y, z = w/n, x/n, y/n, z/n
-    return (2*(x*z - w*y), 2*(y*z + w*x), 1 - 2*(x*x + y*y))
-gt = {}
-for l in open(gt_path):
-    if l.startswith("#") or not l.strip(): continue
-    v = l.split(","); gt[int(v[0])] = gravity_in_body(*map(float, v[4:8]))
-stamps = sorted(gt)
-import bisect
-tilt = 0.0
+tilt = j["ate"]["roll_pitch_max_deg"]
+import os
+cam_csv = os.path.join(os.path.dirname(gt_path), "..", "cam0", "data.csv")
+first_frame = int(next(l for l in open(cam_csv) if l[0].isdigit()).split(",")[0])
+est_t0 = None
 for l in open(est_path):
     if l.startswith("#") or not l.strip(): continue
-    v = l.split(); s, frac = v[0].split("."); t = int(s) * 10**9 + int(frac.ljust(9, "0")[:9])
-    i = bisect.bisect_left(stamps, t)
-    best = min((abs(stamps[k] - t), stamps[k]) for k in (i - 1, i) if 0 <= k < len(stamps))
-    if best[0] > 5_000_000: continue
-    ge = gravity_in_body(float(v[7]), float(v[4]), float(v[5]), float(v[6])); gg = gt[best[1]]
-    d = max(-1.0, min(1.0, sum(a * b for a, b in zip(ge, gg))))
-    tilt = max(tilt, math.degrees(math.acos(d)))
+    s_, frac = l.split()[0].split("."); est_t0 = int(s_) * 10**9 + int(frac.ljust(9, "0")[:9]); break
 pct_path = 100.0 * rmse / path if path > 0 else float("nan")
 print(f"| {name} | {duration:.1f} | {path:.2f} | {rmse:.4f} | {pct_path:.2f} | {amax:.4f} | "
-      f"{tilt:.2f} | {pct(0.5):.2f} / {pct(0.99):.2f} | {rtf:.1f} | {resets} |")
+      f"{tilt:.2f} | {pct(0.5):.2f} / {pct(0.99):.2f} | {rtf:.1f} | {resets} | {start} | "
+      f"{(est_t0 - first_frame) * 1e-9:.2f} |")
 PY
 )")
 done
 
-echo "| dataset | duration [s] | path [m] | ATE RMSE [m] | ATE [% path] | ATE max [m] | roll/pitch err max [deg] | ms/frame p50 / p99 | real-time factor | resets |"
-echo "|---|---|---|---|---|---|---|---|---|---|"
+echo "| dataset | duration [s] | path [m] | ATE RMSE [m] | ATE [% path] | ATE max [m] | roll/pitch err max [deg] | ms/frame p50 / p99 | real-time factor | resets | start | first pose after [s] |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
 printf '%s\n' "${rows[@]}"
 if [[ ${#missing[@]} -gt 0 ]]; then
   echo
