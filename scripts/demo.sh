@@ -154,4 +154,20 @@ grep -E '^ *loc_(attempts|initialized|poses_published|tgm_updates|stage_us_p50)'
     --est "$loc/loc.txt" --align-from "$loc/map-alignment.json" --segments 1 --within 0.5 \
     | grep '^within'
 
+step "on a robot: sensor drivers next to vilma-estimatord (docs/drivers.md)"
+# The same pipeline with hardware: the drivers publish CAM0 / IMU on the default LCM URL
+# (utime = CLOCK_REALTIME [us], accelerations in m/s^2, rates in rad/s, images GRAY8), the
+# estimator subscribes. Once per robot: the LCM receive-buffer limit (docs/lcm.md) and the
+# drivers' udev rules, then the systemd units of config/systemd/.
+cat <<'ROBOT'
+  sudo tee /etc/sysctl.d/60-vilma-lcm.conf <<< 'net.core.rmem_max = 16777216' && sudo sysctl --system
+  sudo cp config/udev/99-vilma-usb-imu.rules /etc/udev/rules.d/ && sudo udevadm control --reload-rules
+  vilma-usb-imu --serial /dev/serial/by-id/usb-...-if00 --family gx5 --rate-hz 200 &   # IMU
+  vilma-estimatord --config /etc/vilma/daemon.yaml --rig /etc/vilma/rig.yaml           # odometry
+  lcm-spy / vilma-lcm-rates: IMU at 200 Hz, VILMA_STATUS_IMU state OK
+ROBOT
+if [ -x "$bin/vilma-usb-imu" ]; then
+  "$bin/vilma-usb-imu" --list --vendor-id 0x199b  # MicroStrain IMUs on this machine's USB
+fi
+
 step "done: outputs in $cache (room-demo-eval.png, room-demo-eval.json, *-vio.txt, map-then-localize/, map-then-localize/console/: map.png, map.html, exports)"
