@@ -74,7 +74,7 @@ std::vector<uint8_t> StripHuffmanTables(const std::vector<uint8_t>& jpeg) {
 
 std::vector<FakeFormat> FakeCameraSpec::DefaultFormats() {
   return {
-      {V4L2_PIX_FMT_GREY, {{640, 480}, {752, 480}, {320, 240}}, {60, 30, 15}},
+      {V4L2_PIX_FMT_GREY, {{640, 480}, {752, 480}, {320, 240}}, {60, 30, 20, 15}},
       {V4L2_PIX_FMT_Y16, {{640, 480}, {320, 240}}, {30, 15}},
       {V4L2_PIX_FMT_YUYV, {{640, 480}, {320, 240}}, {30, 15}},
       {V4L2_PIX_FMT_MJPEG, {{1280, 720}, {640, 480}}, {30, 15}},

@@ -153,12 +153,23 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
   capture.Close();
   status_publisher.Stop();
   const status_t report = status.Build(SteadyNowNs(), WallClockUtime());
-  std::cerr << kProgram << ":";
+  std::cerr << kProgram << ": stopped:";
   for (int i = 0; i < report.num_counters; ++i) {
     std::cerr << " " << report.counter_names[static_cast<std::size_t>(i)] << "="
               << report.counter_values[static_cast<std::size_t>(i)];
   }
-  std::cerr << std::endl;
+  auto metric = [&report](const char* name) {
+    for (int i = 0; i < report.num_metrics; ++i) {
+      if (report.metric_names[static_cast<std::size_t>(i)] == name) {
+        return report.metric_values[static_cast<std::size_t>(i)];
+      }
+    }
+    return 0.0;
+  };
+  char latency[128];
+  std::snprintf(latency, sizeof(latency), "; latency to publish p50 %.2f ms, p99 %.2f ms",
+                metric(kStatusLatencyP50Ms), metric(kStatusLatencyP99Ms));
+  std::cerr << latency << std::endl;
   return kExitOk;
 }
 
