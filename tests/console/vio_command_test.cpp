@@ -31,6 +31,31 @@ TEST_CASE("vilma vio parses its command line") {
   CHECK_THROWS_WITH(ParseVioArgs({"DATA", "--out"}), Catch::Contains("expected a value"));
 }
 
+TEST_CASE("vilma vio --initial-state: parsed, and a file that does not cover the start fails") {
+  CHECK(ParseVioArgs({"DATA", "--out", "t", "--initial-state", "gt.csv"}).initial_state_path ==
+        "gt.csv");
+  CHECK_THROWS_WITH(ParseVioArgs({"DATA", "--out", "t", "--initial-state"}),
+                    Catch::Contains("expected a value"));
+  const std::string micro = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
+  if (!std::filesystem::exists(micro + "/mav0")) {
+    VILMA_SKIP("EuRoC slice not found under " VILMA_SHARED_DATA_DIR);
+  }
+  // A TUM file far from the slice's time: exit 1 naming the file.
+  const std::string gt = (std::filesystem::temp_directory_path() / "vilma_vio_given_far.txt").string();
+  std::ofstream(gt) << "1.0 0 0 0 0 0 0 1\n2.0 0 0 0 0 0 0 1\n";
+  std::ostringstream out, err;
+  CHECK(RunVioCommand({micro, "--out", "/tmp/vilma_vio_given_far_out.txt", "--initial-state", gt},
+                      out, err) == 1);
+  CHECK_THAT(err.str(), Catch::Contains(gt) && Catch::Contains("covers"));
+  // The slice's own ground truth: the filter starts from it at the first frame.
+  std::ostringstream out2, err2;
+  REQUIRE(RunVioCommand({micro, "--out", "/tmp/vilma_vio_given_out.txt", "--initial-state",
+                         micro + "/mav0/state_groundtruth_estimate0/data.csv"},
+                        out2, err2) == 0);
+  CHECK_THAT(out2.str(), Catch::Contains("1 given") && Catch::Contains("velocity and biases from the file"));
+  std::filesystem::remove(gt);
+}
+
 TEST_CASE("vilma vio parses --save-map and --map-config") {
   const VioCommandOptions o =
       ParseVioArgs({"DATA", "--out", "t.txt", "--save-map", "map", "--map-config=m.yaml"});
