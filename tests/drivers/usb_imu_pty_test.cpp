@@ -13,6 +13,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <signal.h>
 #include <pty.h>
 #include <time.h>
 #include <unistd.h>
@@ -156,7 +157,11 @@ class PtyImu {
       if (replug_after_s_ > 0.0 && streamed_s >= replug_after_s_) {
         ::close(master_);
         master_ = -1;
-        std::this_thread::sleep_for(std::chrono::duration<double>(replug_gap_s_));
+        const int64_t back_ns = SteadyNs() + static_cast<int64_t>(replug_gap_s_ * 1e9);
+        while (!stop_ && SteadyNs() < back_ns) {
+          std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        }
+        if (stop_) return;
         options_.device_start_ns += 777 * kMs;  // rebooted: another clock origin
         const bool opened = OpenPty();
         replug_after_s_ = 0.0;
@@ -428,6 +433,37 @@ TEST_CASE("vilma-usb-imu reconnects when the device disappears and comes back",
   bool saw_degraded = false;
   for (const status_t& s : sub.statuses) saw_degraded = saw_degraded || s.state == status_t::DEGRADED;
   CHECK(saw_degraded);
+}
+
+TEST_CASE("vilma-usb-imu stops cleanly on SIGTERM, also while reconnecting",
+          "[usb_imu][integration]") {
+  if (!vilma::test::FileExists(kProgram)) VILMA_SKIP("vilma-usb-imu is not built: " << kProgram);
+  const bool while_reconnecting = GENERATE(false, true);
+  test::SimMipDeviceOptions sim;
+  const std::string link = vilma::test::ScratchDir() + "/imu_tty_sigterm";
+  PtyImu imu(link, sim, 0.0, Faults{});
+  if (while_reconnecting) imu.ReplugAfter(0.5, 30.0);  // gone for longer than the test
+  const std::string url = vilma::test::UniqueLcmUrl();
+  Subscriber sub(url);
+  const std::string log = vilma::test::ScratchDir() + "/usb_imu_sigterm.log";
+  vilma::test::ChildProcess child(
+      {kProgram, "--lcm-url", url, "--status-period-s", "0.25", "--serial", link}, log);
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const int64_t sent_ns = SteadyNs();
+  child.Signal(SIGTERM);
+  const int code = child.Wait(5.0);
+  const double stop_s = static_cast<double>(SteadyNs() - sent_ns) * 1e-9;
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  sub.Stop();
+  INFO("vilma-usb-imu output:\n" << vilma::test::ReadTextFile(log));
+  CHECK(code == 0);
+  CHECK(stop_s < 0.5);
+  CHECK(sub.imus.size() >= 60);
+  REQUIRE(!sub.statuses.empty());
+  const status_t& last = sub.statuses.back();
+  CHECK(last.state == status_t::STOPPING);
+  CHECK(Counter(last, "device_lost") == (while_reconnecting ? 1 : 0));
+  if (while_reconnecting) CHECK(Counter(last, "reconnect_attempts") >= 1);
 }
 
 TEST_CASE("vilma-usb-imu exits 1 naming the command the device refused", "[usb_imu][integration]") {

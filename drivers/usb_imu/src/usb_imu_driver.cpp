@@ -90,6 +90,11 @@ class Driver {
   }
 
   int Run() {
+    // The driver's own counters, present (0) in every report from the first one on.
+    for (const char* name : {"device_lost", "reconnect_attempts", "other_packets"}) {
+      status_->SetCounter(name, 0);
+    }
+    MaybeUpdateStatus(true);
     std::cerr << kProgram << ": " << transport_->Describe() << ", family " << o_.family
               << ", time " << o_.time_source << " -> " << channel_ << " (status "
               << o_.StatusChannel() << ")\n";
