@@ -54,7 +54,8 @@ class Reader {
     if (n > (end_ - pos_) / sizeof(T)) Fail(field, "expected " + std::to_string(n) +
                                                        " elements, file is truncated");
     std::vector<T> v(n);
-    std::memcpy(static_cast<void*>(v.data()), bytes_.data() + pos_, n * sizeof(T));
+    // memcpy from/to a null pointer is undefined even for 0 bytes (found by fuzz_vlocmap).
+    if (n > 0) std::memcpy(static_cast<void*>(v.data()), bytes_.data() + pos_, n * sizeof(T));
     pos_ += n * sizeof(T);
     return v;
   }

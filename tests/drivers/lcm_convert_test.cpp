@@ -109,6 +109,38 @@ TEST_CASE("PNG and JPEG messages decode", "[lcm]") {
   msg.width = 64;
   msg.data.assign(100, 0x42);
   msg.size = 100;
+  CHECK(MessageToImage(msg, &back) == "image_t: JPEG data does not start with the SOI marker");
+}
+
+TEST_CASE("Compressed images are checked before OpenCV decodes them", "[lcm]") {
+  // Found by fuzz_lcm_messages: bytes without the format's signature reached whichever OpenCV
+  // decoder accepted them, and a file can claim any size.
+  const cv::Mat gray = RandomImage(24, 32, CV_8UC1, 12);
+  image_t png{};
+  REQUIRE(ImageToMessage(gray, image_t::PNG, &png).empty());
+  cv::Mat back;
+  image_t msg = png;
+  msg.data[0] = '/';  // the signature's first byte
+  CHECK(MessageToImage(msg, &back) ==
+        "image_t: PNG data does not start with the PNG signature and IHDR");
+  // The IHDR says 32x24; a header of 32x25 is refused before decoding.
+  msg = png;
+  msg.height = 25;
+  CHECK(MessageToImage(msg, &back) == "image_t: PNG file is 32x24, header says 32x25");
+  // A PNG claiming 20000 x 20000 px (a decompression bomb) is refused by its header alone.
+  msg = png;
+  msg.width = msg.height = 20000;
+  CHECK(MessageToImage(msg, &back) ==
+        "image_t: PNG of 20000x20000 px, above the limit of 67108864 px");
+  image_t jpeg{};
+  REQUIRE(ImageToMessage(gray, image_t::JPEG, &jpeg).empty());
+  REQUIRE(MessageToImage(jpeg, &back).empty());
+  msg = jpeg;
+  msg.width = 31;
+  CHECK(MessageToImage(msg, &back) == "image_t: JPEG file is 32x24, header says 31x24");
+  msg = jpeg;
+  msg.data.resize(40);  // cut before the start-of-frame segment ends
+  msg.size = 40;
   CHECK_FALSE(MessageToImage(msg, &back).empty());
 }
 

@@ -176,11 +176,79 @@ std::string ValidateImageMessage(const image_t& msg) {
   return "";
 }
 
+namespace {
+
+// Largest compressed image decoded [pixels]: a PNG or JPEG of a few bytes can claim any size
+// (a decompression bomb); 64 Mpx covers every camera vilma drives.
+constexpr int64_t kMaxCompressedPixels = int64_t{1} << 26;
+
+uint32_t BigEndian16(const uint8_t* p) { return (uint32_t{p[0]} << 8) | p[1]; }
+uint32_t BigEndian32(const uint8_t* p) { return (BigEndian16(p) << 16) | BigEndian16(p + 2); }
+
+// The dimensions a PNG (IHDR) or JPEG (first SOF segment) file declares, read before anything
+// is decoded: cv::imdecode would otherwise hand bytes without the format's signature to
+// whichever of OpenCV's decoders accepts them (GDAL among them in Debian's build; found by
+// fuzz_lcm_messages: 90 bytes of a "PNG" without its signature took 250 ms and large
+// allocations) and allocate what the file claims. "" or what is wrong.
+std::string CompressedDimensions(const image_t& msg, uint32_t* width, uint32_t* height) {
+  const uint8_t* d = msg.data.data();
+  const std::size_t n = msg.data.size();
+  if (msg.pixel_format == image_t::PNG) {
+    static const uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (n < 24 || std::memcmp(d, kSignature, 8) != 0 || std::memcmp(d + 12, "IHDR", 4) != 0) {
+      return "image_t: PNG data does not start with the PNG signature and IHDR";
+    }
+    *width = BigEndian32(d + 16);
+    *height = BigEndian32(d + 20);
+    return "";
+  }
+  // JPEG: SOI, then segments (0xFF marker, 2-byte length) up to a start-of-frame marker.
+  if (n < 4 || d[0] != 0xFF || d[1] != 0xD8 || d[2] != 0xFF) {
+    return "image_t: JPEG data does not start with the SOI marker";
+  }
+  for (std::size_t at = 2; at + 4 <= n;) {
+    if (d[at] != 0xFF) return "image_t: JPEG segment without a marker";
+    const uint8_t marker = d[at + 1];
+    if (marker == 0xFF) {  // fill byte
+      ++at;
+      continue;
+    }
+    const uint32_t length = BigEndian16(d + at + 2);
+    const bool start_of_frame = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 &&
+                                marker != 0xC8 && marker != 0xCC;
+    if (start_of_frame) {
+      if (at + 9 > n) break;
+      *height = BigEndian16(d + at + 5);
+      *width = BigEndian16(d + at + 7);
+      return "";
+    }
+    if (length < 2) return "image_t: JPEG segment length below 2";
+    at += 2 + length;
+  }
+  return "image_t: JPEG data without a start-of-frame segment";
+}
+
+}  // namespace
+
 std::string MessageToImage(const image_t& msg, cv::Mat* image) {
   std::string error = ValidateImageMessage(msg);
   if (!error.empty()) return error;
   try {
     if (IsCompressed(msg.pixel_format)) {
+      if (int64_t{msg.width} * msg.height > kMaxCompressedPixels) {
+        return "image_t: " + PixelFormatName(msg.pixel_format) + " of " +
+               std::to_string(msg.width) + "x" + std::to_string(msg.height) +
+               " px, above the limit of " + std::to_string(kMaxCompressedPixels) + " px";
+      }
+      uint32_t file_width = 0, file_height = 0;
+      error = CompressedDimensions(msg, &file_width, &file_height);
+      if (!error.empty()) return error;
+      if (file_width != static_cast<uint32_t>(msg.width) ||
+          file_height != static_cast<uint32_t>(msg.height)) {
+        return "image_t: " + PixelFormatName(msg.pixel_format) + " file is " +
+               std::to_string(file_width) + "x" + std::to_string(file_height) +
+               ", header says " + std::to_string(msg.width) + "x" + std::to_string(msg.height);
+      }
       const cv::Mat buffer(1, msg.size, CV_8UC1, const_cast<uint8_t*>(msg.data.data()));
       cv::Mat decoded = cv::imdecode(buffer, cv::IMREAD_UNCHANGED);
       if (decoded.empty()) return "image_t: " + PixelFormatName(msg.pixel_format) + " does not decode";
