@@ -42,7 +42,10 @@ for p in vilma-mapstored vilma-mission-sender vilma; do
   [ -x "$bin/$p" ] || { echo "crash-campaign.sh: $bin/$p not built" >&2; exit 1; }
 done
 rm -rf "$work"
-mkdir -p "$work"
+mkdir -p "$work/bin"
+# Private copies: a rebuild during the campaign must not be taken for a broken map.
+cp "$bin/vilma-mapstored" "$bin/vilma-mission-sender" "$bin/vilma" "$work/bin/"
+bin=$work/bin
 RANDOM=$seed
 
 # Uniform random milliseconds in [lo, hi].
