@@ -88,7 +88,10 @@ void ClockSync::AddObservation(int64_t device_ns, int64_t host_arrival_ns) {
     if (residual_ns > static_cast<double>(MsToNs(options_.outlier_threshold_ms))) {
       ++outliers_;
       outlier_run_.push_back(p);
-      if (outlier_run_.back().x - outlier_run_.front().x >= SToNs(options_.jump_confirm_s)) {
+      // Persistent in device time, or so many that the device clock must be stuck (a frozen
+      // clock would otherwise grow the run without bound).
+      if (outlier_run_.back().x - outlier_run_.front().x >= SToNs(options_.jump_confirm_s) ||
+          static_cast<int64_t>(outlier_run_.size()) >= options_.max_window_observations) {
         // Persistent: the host clock stepped forward (or the device clock back by less than
         // it ran since the last pair). Restart from the run, in absolute stamps.
         ++resets_;

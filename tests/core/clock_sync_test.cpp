@@ -213,6 +213,24 @@ TEST_CASE("ClockSync treats a repeated device stamp by its least delayed arrival
   CHECK(sync.DeviceToHostNs(0) == 2 * kMs);  // offset-only (short span): the least delay
 }
 
+TEST_CASE("ClockSync survives a frozen device clock with bounded memory", "[clock_sync]") {
+  ClockSyncOptions options;
+  options.max_window_observations = 100;
+  ClockSync sync(options);
+  for (int64_t k = 0; k < 200; ++k) sync.AddObservation(k * 5 * kMs, k * 5 * kMs + kMs);
+  // The device clock stops at 1 s while the host runs on: every pair is an ever larger outlier.
+  for (int64_t k = 0; k < 1000; ++k) sync.AddObservation(kS, kS + k * 5 * kMs + 20 * kMs);
+  const ClockSyncStats s = sync.stats();
+  // 100 stuck pairs restart the filter from them; they share one device stamp, so the new
+  // window holds one pair (the least delayed) and stays invalid: drivers publish nothing
+  // stamped by a frozen clock.
+  CHECK(s.resets == 1);
+  CHECK(s.outliers == 100);
+  CHECK(s.window_size == 1);
+  CHECK_FALSE(sync.IsValid());
+  CHECK(sync.DeviceToHostNs(kS) == kS + 20 * kMs);
+}
+
 TEST_CASE("MeasureRealtimeMinusMonotonicNs agrees with a naive reading", "[clock_sync]") {
   const int64_t a = MeasureRealtimeMinusMonotonicNs();
   const int64_t naive =
