@@ -362,6 +362,8 @@ Options (flags override --config; defaults in brackets):
                             reopen tries back off from 0.1 s to this [)" << d.reconnect_max_backoff_s << R"(]
   --print-config            print the effective options as YAML and exit
   --help                    this text
+The clock filter's options (clock_sync: window_s, outlier and jump thresholds, ...) are set in
+the --config file only.
 
 Exit status: 0 after a clean stop (signal, --seconds, end of a replay), 1 when the device
 cannot be opened or configured or LCM fails, 2 on bad options or config file.
