@@ -90,6 +90,31 @@ TEST_CASE("ChooseDecimation: nearest integer, or an error naming the rates near 
   CHECK_THROWS_AS(ChooseDecimation(0, 100), MipCommandError);
 }
 
+// The libusb transport without hardware: only "no such device" can be tested here (the rest
+// runs only with a MicroStrain IMU plugged in, docs/drivers.md).
+TEST_CASE("UsbTransport: an absent device is a clear 'device gone' error", "[usb_imu]") {
+  UsbDeviceSelector selector;
+  selector.vendor_id = 0x199b;
+  selector.product_ids = {0x0001};  // no MicroStrain product has this id
+  UsbTransport transport(selector);
+  CHECK(transport.Describe() == "USB 199b:0001");
+  try {
+    transport.Open();
+    FAIL("opened a USB device 199b:0001");
+  } catch (const TransportError& e) {
+    const std::string what = e.what();
+    if (what.rfind("libusb_init", 0) == 0) {
+      VILMA_SKIP("libusb cannot start here (" << what << ")");
+    }
+    CHECK(what == "USB 199b:0001: no such device");
+    CHECK(e.device_gone());  // the driver would retry (a device that is being replugged)
+  }
+  uint8_t byte = 0;
+  CHECK_THROWS_AS(transport.Read(&byte, 1, 1), TransportError);
+  CHECK_THROWS_AS(transport.Write(&byte, 1), TransportError);
+  transport.Close();  // idempotent
+}
+
 MipImuSample Sample(int64_t k, int64_t period_ns, int64_t device0_ns = 5000 * kMs) {
   MipImuSample s;
   test::SimReadings(k, s.accel_g, s.gyro_rad_s);
