@@ -224,48 +224,60 @@ struct FakeV4l2Io::State {
   uint32_t jpeg_cache_width = 0;
   uint32_t jpeg_cache_height = 0;
 
+  // The encoded MJPG frame of `sequence`. A camera encodes in hardware: the fake encodes each
+  // of the pattern's 128 phases once (WarmJpegCache at STREAMON), so that its own encoding
+  // time does not show up as the driver's latency.
+  const std::vector<uint8_t>& Jpeg(int64_t sequence) {
+    if (jpeg_cache_width != format.width || jpeg_cache_height != format.height) {
+      jpeg_cache.assign(128, {});
+      jpeg_cache_width = format.width;
+      jpeg_cache_height = format.height;
+    }
+    std::vector<uint8_t>& jpeg = jpeg_cache[static_cast<std::size_t>(sequence % 128)];
+    if (jpeg.empty()) {
+      const cv::Mat pattern = FakeFramePattern(sequence, static_cast<int>(format.width),
+                                               static_cast<int>(format.height));
+      cv::imencode(".jpg", pattern, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
+      if (spec.mjpg_without_huffman_tables) jpeg = StripHuffmanTables(jpeg);
+    }
+    return jpeg;
+  }
+  void WarmJpegCache() {
+    if (format.pixelformat != V4L2_PIX_FMT_MJPEG) return;
+    for (int64_t phase = 0; phase < 128; ++phase) Jpeg(phase);
+  }
+
   void FillBuffer(Buffer* buffer, int64_t sequence) {
-    const cv::Mat pattern =
-        FakeFramePattern(sequence, static_cast<int>(format.width), static_cast<int>(format.height));
-    std::size_t used = format.sizeimage;
     uint8_t* out = buffer->memory.data();
+    if (format.pixelformat == V4L2_PIX_FMT_MJPEG) {
+      const std::vector<uint8_t>& jpeg = Jpeg(sequence);
+      const std::size_t used = std::min(jpeg.size(), buffer->memory.size());
+      std::memcpy(out, jpeg.data(), used);
+      buffer->info.bytesused = static_cast<uint32_t>(used);
+      return;
+    }
+    // FakeFramePattern's ramp, written straight into the format's layout.
+    const int shift = static_cast<int>((sequence * 2) % 256);
     const int w = static_cast<int>(format.width);
-    for (int y = 0; y < pattern.rows && format.pixelformat != V4L2_PIX_FMT_MJPEG; ++y) {
-      const uint8_t* row = pattern.ptr<uint8_t>(y);
+    for (int y = 0; y < static_cast<int>(format.height); ++y) {
       uint8_t* line = out + static_cast<std::size_t>(y) * format.bytesperline;
       for (int x = 0; x < w; ++x) {
+        const auto value = static_cast<uint8_t>((x / 4 + y / 4 + shift) & 0xff);
         switch (format.pixelformat) {
           case V4L2_PIX_FMT_Y16:  // little endian
             line[2 * x] = static_cast<uint8_t>(x & 0xff);
-            line[2 * x + 1] = row[x];
+            line[2 * x + 1] = value;
             break;
           case V4L2_PIX_FMT_YUYV:  // Y0 U Y1 V: chroma that a gray conversion must ignore
-            line[2 * x] = row[x];
+            line[2 * x] = value;
             line[2 * x + 1] = (x % 2 == 0) ? 0x40 : 0xC0;
             break;
           default:
-            line[x] = row[x];
+            line[x] = value;
         }
       }
     }
-    if (format.pixelformat == V4L2_PIX_FMT_MJPEG) {
-      // A camera encodes in hardware: the fake encodes each of the pattern's 128 phases once,
-      // so that its own encoding time does not show up as the driver's latency.
-      const std::size_t phase = static_cast<std::size_t>(sequence % 128);
-      if (jpeg_cache_width != format.width || jpeg_cache_height != format.height) {
-        jpeg_cache.assign(128, {});
-        jpeg_cache_width = format.width;
-        jpeg_cache_height = format.height;
-      }
-      std::vector<uint8_t>& jpeg = jpeg_cache[phase];
-      if (jpeg.empty()) {
-        cv::imencode(".jpg", pattern, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
-        if (spec.mjpg_without_huffman_tables) jpeg = StripHuffmanTables(jpeg);
-      }
-      used = std::min(jpeg.size(), buffer->memory.size());
-      std::memcpy(out, jpeg.data(), used);
-    }
-    buffer->info.bytesused = static_cast<uint32_t>(used);
+    buffer->info.bytesused = format.sizeimage;
   }
 
   // Hands out every frame that is due by `now_ns`.
@@ -620,6 +632,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       if (*static_cast<int*>(arg) != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
       if (buffers.empty() || owner_fd != fd) return -EINVAL;
       if (streaming) return 0;
+      WarmJpegCache();
       streaming = true;
       next_sequence = 0;
       stream_start_ns = now_ns + IntervalNs();

@@ -180,7 +180,12 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
   result = io_->Ioctl(fd_, VIDIOC_STREAMON, &type);
   if (result != 0) {
     Close();
-    return "VIDIOC_STREAMON failed: " + ErrnoText(result);
+    // uvcvideo: not enough isochronous USB bandwidth for this format, size and rate.
+    const std::string hint = result == -ENOSPC
+                                 ? " (USB bandwidth: fewer cameras on this controller, a smaller "
+                                   "size or rate, or MJPG)"
+                                 : "";
+    return "VIDIOC_STREAMON failed: " + ErrnoText(result) + hint;
   }
   streaming_ = true;
   last_sequence_ = -1;
