@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <iterator>
 #include <sstream>
 
 namespace vilma::usb_imu {
@@ -54,6 +55,7 @@ MipPacket MipDevice::Command(const MipPacket& command, const std::string& name, 
   const uint8_t set = CommandSet(command);
   const uint8_t descriptor = CommandDescriptor(command);
   uint8_t buffer[1024];
+  leftovers_.clear();
   for (int attempt = 0; attempt < retries; ++attempt) {
     transport_->Write(bytes.data(), bytes.size());
     const auto deadline =
@@ -64,9 +66,10 @@ MipPacket MipDevice::Command(const MipPacket& command, const std::string& name, 
                             .count();
       const std::size_t n =
           transport_->Read(buffer, sizeof(buffer), static_cast<int>(std::max<int64_t>(1, left)));
-      for (const MipPacket& packet : framer_->Push(buffer, n)) {
+      std::vector<MipPacket> packets = framer_->Push(buffer, n);
+      for (std::size_t i = 0; i < packets.size(); ++i) {
         uint8_t code = 0;
-        if (!FindMipAck(packet, set, descriptor, &code)) {
+        if (!FindMipAck(packets[i], set, descriptor, &code)) {
           ++dropped_packets_;  // streamed data or a late reply to an earlier try
           continue;
         }
@@ -74,7 +77,10 @@ MipPacket MipDevice::Command(const MipPacket& command, const std::string& name, 
           throw MipCommandError(name + ": " + MipErrorName(code) + " from " +
                                 transport_->Describe());
         }
-        return packet;
+        // What came after the ACK in the same read (after "resume": the first samples).
+        leftovers_.assign(std::make_move_iterator(packets.begin() + static_cast<std::ptrdiff_t>(i) + 1),
+                          std::make_move_iterator(packets.end()));
+        return packets[i];
       }
       if (transport_->AtEnd()) break;
     }

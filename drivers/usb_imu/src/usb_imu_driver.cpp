@@ -79,6 +79,8 @@ class Driver {
     if (o_.configure) {
       MipDevice device(transport_.get(), &framer_);
       const MipConfigResult r = device.Configure(config_);
+      first_packets_ = device.TakeLeftovers();
+      first_packets_arrival_ns_ = RealtimeNs();
       stream_.set_expected_rate_hz(r.rate_hz);
       status_->SetMetric("configured_rate_hz", r.rate_hz);
       status_->SetMetric("base_rate_hz", r.base_rate_hz);
@@ -109,6 +111,7 @@ class Driver {
     status_->SetState(status_t::OK, "streaming from " + transport_->Describe());
     sd_notify(0, "READY=1");
     last_sample_steady_ns_ = SteadyNs();
+    HandleFirstPackets();
     uint8_t buffer[4096];  // a multiple of every USB bulk packet size
     while (!Stopping()) {
       std::size_t n = 0;
@@ -175,6 +178,7 @@ class Driver {
                                             " (reconnected)");
         std::cerr << kProgram << ": reconnected, " << configured_ << "\n";
         last_sample_steady_ns_ = SteadyNs();
+        HandleFirstPackets();
         return true;
       } catch (const std::exception& e) {
         transport_->Close();
@@ -183,6 +187,14 @@ class Driver {
       backoff_s = std::min(2.0 * backoff_s, o_.reconnect_max_backoff_s);
     }
     return false;
+  }
+
+  // The samples that came in the same read as the last configuration reply (their arrival:
+  // when the configuration returned, a little late, which the clock filter tolerates).
+  void HandleFirstPackets() {
+    std::vector<MipPacket> packets;
+    packets.swap(first_packets_);
+    HandlePackets(packets, first_packets_arrival_ns_);
   }
 
   void HandleBytes(const uint8_t* data, std::size_t n, int64_t arrival_ns) {
@@ -292,6 +304,8 @@ class Driver {
   MipDecodeStats decode_stats_;
   ImuStream stream_;
   std::string configured_;
+  std::vector<MipPacket> first_packets_;
+  int64_t first_packets_arrival_ns_ = 0;
   int64_t seq_ = 0;
   int64_t start_steady_ns_ = 0;
   int64_t last_sample_steady_ns_ = 0;

@@ -59,11 +59,15 @@ class MipDevice {
                     int retries);
 
   int64_t dropped_during_configuration() const { return dropped_packets_; }
+  // Packets that arrived after the last command's ACK in the same read: after Configure(),
+  // the stream's first samples, which the caller should not lose.
+  std::vector<MipPacket> TakeLeftovers() { return std::move(leftovers_); }
 
  private:
   ByteTransport* transport_;
   MipFramer* framer_;
   int64_t dropped_packets_ = 0;
+  std::vector<MipPacket> leftovers_;
 };
 
 }  // namespace vilma::usb_imu
