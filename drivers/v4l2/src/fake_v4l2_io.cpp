@@ -635,7 +635,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       WarmJpegCache();
       streaming = true;
       next_sequence = 0;
-      stream_start_ns = now_ns + IntervalNs();
+      stream_start_ns = SystemMonotonicNs() + IntervalNs();  // after the warm-up
       return 0;
     }
     case VIDIOC_STREAMOFF: {
