@@ -6,7 +6,10 @@
 
 #ifdef VILMA_HAVE_DRIVER_USB_IMU
 
+#include <cstdio>
 #include <fstream>
+#include <regex>
+#include <sstream>
 
 #include "integration/process_util.h"
 #include "vilma/core/arg_cursor.h"
@@ -146,6 +149,27 @@ TEST_CASE("config/usb_imu.yaml is valid and lists every option", "[usb_imu]") {
     INFO(key);
     CHECK(text.find(key + ":") != std::string::npos);
   }
+}
+
+// The udev rule grants access to the vendor the driver opens by default, and every rule line is
+// made of KEY==value / KEY=value / KEY+=value pairs (a typo would make udev skip the line).
+TEST_CASE("config/udev/99-vilma-usb-imu.rules matches the driver's vendor id", "[usb_imu]") {
+  const std::string path = std::string(VILMA_SOURCE_DIR) + "/config/udev/99-vilma-usb-imu.rules";
+  std::ifstream in(path);
+  REQUIRE(in);
+  char vendor[8];
+  std::snprintf(vendor, sizeof(vendor), "%04x", UsbImuOptions().usb_vendor_id);
+  const std::regex pair(R"re(\s*[A-Z_]+(\{[A-Za-z_]+\})?(==|\+=|:=|=)"[^"]*"\s*)re");
+  int rules = 0;
+  for (std::string line; std::getline(in, line);) {
+    if (line.empty() || line[0] == '#') continue;
+    ++rules;
+    INFO(line);
+    CHECK(line.find(std::string("{idVendor}==\"") + vendor + "\"") != std::string::npos);
+    std::stringstream parts(line);
+    for (std::string part; std::getline(parts, part, ',');) CHECK(std::regex_match(part, pair));
+  }
+  CHECK(rules == 2);  // the tty and the USB device node
 }
 
 }  // namespace
