@@ -7,6 +7,7 @@
 // hold the interfaces and rebinds it when we release them.
 #include <libusb.h>
 
+#include <algorithm>
 #include <sstream>
 
 #include "vilma/drivers/usb_imu/transport.h"
@@ -53,6 +54,7 @@ struct UsbTransport::Impl {
   bool data_claimed = false;
   uint8_t endpoint_in = 0;
   uint8_t endpoint_out = 0;
+  int in_packet_bytes = 64;  // wMaxPacketSize of the IN endpoint
   std::string description;
 };
 
@@ -164,11 +166,13 @@ void UsbTransport::Open() {
     }
     uint8_t in = 0;
     uint8_t out = 0;
+    int in_packet_bytes = 64;
     for (uint8_t e = 0; e < alt.bNumEndpoints; ++e) {
       const libusb_endpoint_descriptor& ep = alt.endpoint[e];
       if ((ep.bmAttributes & 0x03) != LIBUSB_TRANSFER_TYPE_BULK) continue;
       if (ep.bEndpointAddress & LIBUSB_ENDPOINT_IN) {
         in = ep.bEndpointAddress;
+        in_packet_bytes = std::max(8, static_cast<int>(ep.wMaxPacketSize & 0x7FF));
       } else {
         out = ep.bEndpointAddress;
       }
@@ -178,6 +182,7 @@ void UsbTransport::Open() {
       m.data_interface = alt.bInterfaceNumber;
       m.endpoint_in = in;
       m.endpoint_out = out;
+      m.in_packet_bytes = in_packet_bytes;
     }
   }
   libusb_free_config_descriptor(config);
@@ -223,9 +228,14 @@ void UsbTransport::Close() {
 std::size_t UsbTransport::Read(uint8_t* data, std::size_t size, int timeout_ms) {
   Impl& m = *impl_;
   if (m.handle == nullptr) throw TransportError(Describe() + ": not open", true);
+  // One USB packet per transfer: a bulk IN transfer ends early only on a short packet, so a
+  // larger request could hold full-size packets back until the timeout, and the arrival stamps
+  // (the clock filter's input) would lag by up to timeout_ms.
+  const auto request = static_cast<int>(std::min<std::size_t>(
+      size, static_cast<std::size_t>(m.in_packet_bytes)));
   int transferred = 0;
-  const int rc = libusb_bulk_transfer(m.handle, m.endpoint_in, data, static_cast<int>(size),
-                                      &transferred, static_cast<unsigned>(timeout_ms));
+  const int rc = libusb_bulk_transfer(m.handle, m.endpoint_in, data, request, &transferred,
+                                      static_cast<unsigned>(timeout_ms));
   if (rc == 0 || rc == LIBUSB_ERROR_TIMEOUT) return static_cast<std::size_t>(transferred);
   if (rc == LIBUSB_ERROR_PIPE) {  // a stalled endpoint: clear it and go on
     libusb_clear_halt(m.handle, m.endpoint_in);
