@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # vilma's main job on embedded defaults, end to end:
 #   1. set up (install what is missing, build);
-#   2. replay the bundled EuRoC slice over LCM while a subscriber prints per-channel rates;
+#   2. replay the bundled EuRoC slice over LCM while a subscriber prints per-channel rates,
+#      and run a camera driver (vilma-v4l2 with its fake camera) the same way;
 #   3. simulate a room session (ground truth included) and replay it over LCM the same way;
 #   4. run the visual-inertial odometry on it (vilma vio) and evaluate the trajectory against
 #      the simulator's ground truth (vilma eval: ATE/RPE table, JSON and a plot);
@@ -46,6 +47,19 @@ if [ -d "$euroc/mav0" ]; then
   replay_and_watch "$euroc" 4.75
 else
   echo "demo: $euroc not found (the bundled EuRoC slice); skipping its replay"
+fi
+
+if [ -x "$bin/vilma-v4l2" ]; then
+  # A camera driver as on a robot (docs/drivers.md): the V4L2 driver with its built-in fake
+  # camera publishes CAM0 (and VILMA_STATUS_CAM0) for 3 s; on a robot it is
+  # `vilma-v4l2 --device /dev/v4l/by-id/...` (vilma-v4l2 --list shows the cameras).
+  step "driver: vilma-v4l2 --fake (a V4L2 camera without hardware) on LCM for 3 s"
+  "$bin/vilma-lcm-rates" --lcm-url "$url" --idle-timeout 3 --duration 60 --quiet &
+  monitor=$!
+  sleep 0.5
+  "$bin/vilma-v4l2" --fake --size 752x480 --fps 20 --exposure 4000 --seconds 3 --lcm-url "$url"
+  wait "$monitor"
+  "$bin/vilma-v4l2" --list || true
 fi
 
 step "simulate: 30 s of the 'room' world, stereo, with ground truth (vilma-sim)"
