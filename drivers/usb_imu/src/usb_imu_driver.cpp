@@ -112,7 +112,7 @@ class Driver {
     sd_notify(0, "READY=1");
     last_sample_steady_ns_ = SteadyNs();
     HandleFirstPackets();
-    uint8_t buffer[4096];  // a multiple of every USB bulk packet size
+    uint8_t buffer[4096];  // many tty packets per read (the USB transport takes one USB packet)
     while (!Stopping()) {
       std::size_t n = 0;
       try {

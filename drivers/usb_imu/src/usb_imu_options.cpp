@@ -344,7 +344,8 @@ Options (flags override --config; defaults in brackets):
   --no-configure            do not configure the device; take its stream as it comes
   --command-timeout-ms MS   wait for each command's ACK [)" << d.command_timeout_ms << R"(]
   --command-retries N       tries per command [)" << d.command_retries << R"(]
-  --rate-hz R               sample rate: base rate / integer decimation [)" << d.rate_hz << R"(]
+  --rate-hz R               sample rate: base rate / integer decimation (with
+                            --no-configure: the rate the device streams) [)" << d.rate_hz << R"(]
   --lowpass auto|off|manual accel and gyro low-pass filter [)" << d.lowpass << R"(]
   --lowpass-cutoff-hz F     cutoff with --lowpass manual
   --time-source host_sync|device

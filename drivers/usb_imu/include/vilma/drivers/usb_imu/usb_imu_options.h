@@ -27,7 +27,9 @@ struct UsbImuOptions {
 
   std::string family = "gx5";  // MIP command dialect: "gx5" (3DM-GX5-xx) or "cv7" (3DM-CV7-xx)
   bool configure = true;       // send the configuration (false: take the stream as it comes)
-  double rate_hz = 200.0;      // wanted sample rate [Hz] (base rate / integer decimation)
+  // Wanted sample rate [Hz] (base rate / integer decimation); with configure false, the rate
+  // the device already streams (for counting dropped samples).
+  double rate_hz = 200.0;
   std::string lowpass = "auto";     // accel+gyro low-pass: "auto" (half the rate), "off", "manual"
   double lowpass_cutoff_hz = 0.0;   // lowpass "manual": -3 dB cutoff [Hz]
   int command_timeout_ms = 500;     // wait for each ACK
