@@ -142,6 +142,31 @@ TEST_CASE("MIP IMU data decodes to the sample, both timestamp fields", "[usb_imu
   }
 }
 
+TEST_CASE("MIP GPS timestamps stay continuous across a week rollover", "[usb_imu]") {
+  // The GX5's 0x12 field at 1 kHz around the end of week 2300: tow wraps to 0, week + 1.
+  const int64_t end_of_week_ns = 2301 * kGpsWeekNs;
+  int64_t last = 0;
+  for (int64_t k = -3; k <= 3; ++k) {
+    const int64_t device_ns = end_of_week_ns + k * 1000000;
+    MipPacket p;
+    p.descriptor_set = 0x80;
+    Bytes t;
+    const int64_t week = device_ns / kGpsWeekNs;
+    AppendDouble(&t, static_cast<double>(device_ns - week * kGpsWeekNs) * 1e-9);
+    AppendU16(&t, static_cast<uint16_t>(week));
+    AppendU16(&t, 0x1F);
+    p.fields = {MipField{0x12, t}};
+    MipImuSample s;
+    MipDecodeStats stats;
+    REQUIRE(DecodeMipImuSample(p, &s, &stats));
+    REQUIRE(s.has_timestamp);
+    CHECK(s.gps_flags == 0x1F);
+    CHECK(std::abs(s.device_ns - device_ns) < 1000);
+    if (k > -3) CHECK(s.device_ns - last == Approx(1000000).margin(1000));
+    last = s.device_ns;
+  }
+}
+
 TEST_CASE("MIP IMU decoding counts wrong lengths, bad values and unknown fields",
           "[usb_imu]") {
   MipPacket p;
