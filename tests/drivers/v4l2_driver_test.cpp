@@ -199,6 +199,52 @@ TEST_CASE("vilma-v4l2 --fake publishes the camera's frames on LCM at its rate", 
   CHECK(ok_seen);
 }
 
+TEST_CASE(
+    "vilma-v4l2 --fake: an unplugged camera is recovered, counted on the status channel, "
+    "and SIGTERM stops it cleanly",
+    "[v4l2][program]") {
+  if (!test::FileExists(kProgram)) VILMA_SKIP(kProgram << " is not built");
+  const std::string url = test::UniqueLcmUrl();
+  BusRecorder bus(url);
+  REQUIRE(bus.good());
+  const std::string out = test::ScratchDir() + "/v4l2_unplug.out";
+  // 60 fps 320x240; unplugged at the 30th frame for 0.5 s; no --seconds: SIGTERM ends it.
+  test::ChildProcess driver(
+      {kProgram, "--fake", "--size", "320x240", "--fps", "60", "--fake-unplug-after", "30",
+       "--lcm-url", url, "--status-period-s", "0.1"},
+      out);
+  const auto stop_at = std::chrono::steady_clock::now() + std::chrono::milliseconds(2500);
+  while (std::chrono::steady_clock::now() < stop_at) bus.Drain(&driver, 0.1);
+  REQUIRE(driver.running());
+  driver.Signal(SIGTERM);
+  bus.Drain(&driver, 10.0);
+  REQUIRE(driver.Wait(5) == kExitOk);
+  INFO(test::ReadTextFile(out));
+
+  const std::vector<image_t>& images = bus.images;
+  REQUIRE(images.size() >= 80);
+  int64_t longest_gap_us = 0;
+  for (std::size_t i = 1; i < images.size(); ++i) {
+    CHECK(images[i].seq == images[i - 1].seq + 1);  // continuous across the new stream
+    CHECK(images[i].utime > images[i - 1].utime);
+    longest_gap_us = std::max(longest_gap_us, images[i].utime - images[i - 1].utime);
+  }
+  CHECK(longest_gap_us >= 500000);  // the outage
+  CHECK(longest_gap_us < 2000000);
+  bool degraded_seen = false;
+  for (const status_t& r : bus.reports) {
+    degraded_seen = degraded_seen || r.state == status_t::DEGRADED;
+  }
+  CHECK(degraded_seen);
+  REQUIRE(!bus.reports.empty());
+  const status_t& last = bus.reports.back();
+  CHECK(last.state == status_t::STOPPING);
+  CHECK(CounterOf(last, "reconnects") == 1);
+  CHECK(CounterOf(last, "device_lost") == 1);
+  CHECK(CounterOf(last, "dropped") == 0);
+  CHECK(CounterOf(last, "published") == static_cast<int64_t>(images.size()));
+}
+
 TEST_CASE("vilma-v4l2 --device /dev/video0 --seconds 2 on a real camera", "[v4l2][program]") {
   if (!test::FileExists("/dev/video0")) {
     // No camera on this machine (CI has none): nothing to run against.

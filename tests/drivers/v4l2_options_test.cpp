@@ -134,7 +134,9 @@ TEST_CASE("v4l2 command-line flags override the config file in any order", "[v4l
                                         "--buffer-stamps",
                                         "--readout-us",
                                         "100",
-                                        "--require-size"});
+                                        "--require-size",
+                                        "--status-period-s",
+                                        "0.5"});
   CHECK(o.capture.device == "/dev/video3");
   CHECK(o.capture.format.width == 320);
   CHECK(o.capture.format.height == 240);
@@ -154,6 +156,7 @@ TEST_CASE("v4l2 command-line flags override the config file in any order", "[v4l
   CHECK_FALSE(o.capture.timestamps.mid_exposure);
   CHECK(o.capture.timestamps.readout_us == 100.0);
   CHECK(o.capture.format.require_size);
+  CHECK(o.status_period_s == 0.5);
   CHECK(o.config_file == path);
 }
 
@@ -170,6 +173,8 @@ TEST_CASE("v4l2 bad command lines are usage errors that say what is wrong", "[v4
   CHECK(UsageErrorOf({"--buffers", "1"}).find("buffers: expected 2 .. 32") != std::string::npos);
   CHECK(UsageErrorOf({"--channel"}).find("expected a value") != std::string::npos);
   CHECK(UsageErrorOf({"--status-channel", "CAM0"}).find("another channel") != std::string::npos);
+  CHECK(UsageErrorOf({"--fake-unplug-after", "5"}).find("together with --fake") !=
+        std::string::npos);
   CHECK_THROWS_AS(FromArgs({"--config", "/nonexistent/v4l2.yaml"}), InputError);
 }
 
@@ -212,12 +217,32 @@ TEST_CASE("v4l2 the systemd unit's command line is one vilma-v4l2 accepts", "[v4
 
 TEST_CASE("v4l2 the usage text (--help) names every flag the parser knows", "[v4l2]") {
   const std::string usage = V4l2Usage();
-  for (const char* flag : {"--config",     "--device",         "--formats",        "--size",
-                           "--fps",        "--require-size",   "--require-fps",    "--keep-16-bit",
-                           "--buffers",    "--exposure",       "--gain",           "--control",
-                           "--readout-us", "--buffer-stamps",  "--lcm-url",        "--channel",
-                           "--camera-id",  "--channel-suffix", "--status-channel", "--seconds",
-                           "--fake",       "--list",           "--print-config",   "--help"}) {
+  for (const char* flag : {"--config",
+                           "--device",
+                           "--formats",
+                           "--size",
+                           "--fps",
+                           "--require-size",
+                           "--require-fps",
+                           "--keep-16-bit",
+                           "--buffers",
+                           "--exposure",
+                           "--gain",
+                           "--control",
+                           "--readout-us",
+                           "--buffer-stamps",
+                           "--lcm-url",
+                           "--channel",
+                           "--camera-id",
+                           "--channel-suffix",
+                           "--status-channel",
+                           "--seconds",
+                           "--status-period-s",
+                           "--fake",
+                           "--fake-unplug-after",
+                           "--list",
+                           "--print-config",
+                           "--help"}) {
     CAPTURE(flag);
     CHECK(usage.find(std::string(flag) + " ") != std::string::npos);
   }

@@ -44,7 +44,11 @@ std::string ListDevices(V4l2Io* io, int* capture_nodes) {
         << ", bus: " << reinterpret_cast<const char*>(cap.bus_info) << "\n";
     if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0) {
       out << "  not a video capture node"
-          << ((caps & V4L2_CAP_META_CAPTURE) != 0 ? " (metadata node)" : "") << "\n";
+          << ((caps & V4L2_CAP_META_CAPTURE) != 0 ? " (metadata node)" : "")
+          << ((caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) != 0
+                  ? " (multi-planar capture: not supported by vilma-v4l2)"
+                  : "")
+          << "\n";
       io->Close(fd);
       continue;
     }

@@ -114,6 +114,12 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
   }
   const uint32_t caps =
       (cap.capabilities & V4L2_CAP_DEVICE_CAPS) != 0 ? cap.device_caps : cap.capabilities;
+  if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0 && (caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) != 0) {
+    Close();
+    return "the device captures through the multi-planar API only "
+           "(V4L2_CAP_VIDEO_CAPTURE_MPLANE, e.g. rkisp1, mxc-isi), which vilma-v4l2 does not "
+           "support";
+  }
   if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0) {
     Close();
     return "not a video capture node (uvcvideo makes a metadata node beside each camera's "

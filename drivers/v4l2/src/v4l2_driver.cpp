@@ -86,8 +86,11 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
   }
 
   std::unique_ptr<V4l2Io> io;
+  FakeV4l2Io* fake = nullptr;
   if (options.fake) {
-    io = std::make_unique<FakeV4l2Io>();
+    auto fake_io = std::make_unique<FakeV4l2Io>();
+    fake = fake_io.get();
+    io = std::move(fake_io);
   } else {
     io = std::make_unique<SystemV4l2Io>();
   }
@@ -121,6 +124,9 @@ int V4l2Main(const std::vector<std::string>& args, const std::atomic<bool>* stop
   }
   status_publisher.Start();
   Notify("READY=1");
+  if (fake != nullptr && options.fake_unplug_after > 0) {
+    fake->UnplugAfterFrames(options.fake_unplug_after, options.fake_unplug_s);
+  }
   std::cerr << kProgram << ": publishing " << options.DataChannel() << " (status on "
             << options.StatusChannel() << ")"
             << (capture.by_id_link().empty() ? "" : ", camera " + capture.by_id_link())

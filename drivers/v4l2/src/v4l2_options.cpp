@@ -255,8 +255,10 @@ Options (each overrides the same field of --config; defaults in brackets):
   --camera-id N         image_t.camera_id, the camera's index in the rig [0]
   --channel-suffix S    appended to every channel name (e.g. _R2) []
   --status-channel NAME status channel [VILMA_STATUS_<channel>]
+  --status-period-s S   status_t period [s] [1]
   --seconds S           stop after S seconds [0 = run until SIGINT/SIGTERM]
   --fake                use the built-in fake camera (no hardware; for demos and tests)
+  --fake-unplug-after N with --fake: unplug the camera after N frames for 0.5 s (recovery)
   --list                print the devices, their formats, sizes, rates and controls; exit
   --print-config        print the effective options as YAML and exit
   --help                this text
@@ -355,10 +357,14 @@ V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, boo
       o.channel_suffix = arg.Value();
     } else if (name == "--status-channel") {
       o.status_channel = arg.Value();
+    } else if (name == "--status-period-s") {
+      o.status_period_s = number(arg);
     } else if (name == "--seconds") {
       o.seconds = number(arg);
     } else if (name == "--fake") {
       o.fake = arg.Flag();
+    } else if (name == "--fake-unplug-after") {
+      o.fake_unplug_after = integer(arg);
     } else if (name == "--list") {
       o.list = arg.Flag();
     } else if (name == "--print-config") {
@@ -368,6 +374,9 @@ V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, boo
     } else {
       throw UsageError("unexpected argument '" + arg.word() + "' (vilma-v4l2 takes options only)");
     }
+  }
+  if (o.fake_unplug_after < 0 || (o.fake_unplug_after > 0 && !o.fake)) {
+    throw UsageError("--fake-unplug-after: expected N >= 1 together with --fake");
   }
   const std::string error = o.Validate();
   if (!error.empty()) throw UsageError(error);

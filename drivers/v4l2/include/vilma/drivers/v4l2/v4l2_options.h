@@ -22,7 +22,11 @@ struct V4l2DriverOptions {
   double status_period_s = 1.0;  // status_t period [s]
   double seconds = 0.0;          // stop after this long [s]; 0 = until SIGINT/SIGTERM
   // Command line only:
-  bool fake = false;          // the in-process fake camera (fake_v4l2_io.h) instead of the kernel
+  bool fake = false;  // the in-process fake camera (fake_v4l2_io.h) instead of the kernel
+  // With --fake: unplug the fake camera after this many frames for fake_unplug_s, to show the
+  // recovery (0 = never).
+  int fake_unplug_after = 0;
+  double fake_unplug_s = 0.5;
   bool list = false;          // print devices, formats, controls and exit
   bool print_config = false;  // print the effective options and exit
   std::string config_file;    // where the YAML came from ("" = defaults)
