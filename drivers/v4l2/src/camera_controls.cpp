@@ -221,7 +221,8 @@ std::string DescribeControls(V4l2Io* io, int fd) {
     if ((q.flags & V4L2_CTRL_FLAG_READ_ONLY) != 0) out << " read-only";
     out << "\n";
     if (q.type == V4L2_CTRL_TYPE_MENU) {
-      for (int64_t i = q.minimum; i <= q.maximum; ++i) {
+      // Menus are short; the bound guards against a driver reporting a huge range.
+      for (int64_t i = q.minimum; i <= q.maximum && i - q.minimum < 256; ++i) {
         v4l2_querymenu menu{};
         menu.id = q.id;
         menu.index = static_cast<uint32_t>(i);

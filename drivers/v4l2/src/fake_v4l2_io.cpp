@@ -57,6 +57,7 @@ std::vector<uint8_t> StripHuffmanTables(const std::vector<uint8_t>& jpeg) {
   while (i + 4 <= jpeg.size() && jpeg[i] == 0xFF) {
     const int marker = jpeg[i + 1];
     const std::size_t length = (static_cast<std::size_t>(jpeg[i + 2]) << 8) | jpeg[i + 3];
+    if (length < 2 || i + 2 + length > jpeg.size()) break;  // not a JPEG we understand
     if (marker == 0xDA) {  // start of scan: the rest is entropy-coded data
       out.insert(out.end(), jpeg.begin() + static_cast<std::ptrdiff_t>(i), jpeg.end());
       return out;
