@@ -73,9 +73,12 @@ Camera ReadCameraModel(const YamlNode& node, const std::string& model_key) {
   }
   const Eigen::VectorXd coefficients =
       node.GetVector("distortion_coefficients", NumDistortionCoefficients(model));
+  // The bound keeps the conversion to int defined (found by fuzz_rig_yaml: 1.1e18 px).
+  constexpr double kMaxResolution = 65535.0;
   for (int i = 0; i < 2; ++i) {
-    if (resolution[i] < 1.0 || resolution[i] != std::floor(resolution[i])) {
-      node.Fail("resolution", "two positive whole numbers (width, height)");
+    if (!(resolution[i] >= 1.0 && resolution[i] <= kMaxResolution) ||
+        resolution[i] != std::floor(resolution[i])) {
+      node.Fail("resolution", "two whole numbers from 1 to 65535 (width, height)");
     }
   }
   Camera camera(static_cast<int>(resolution[0]), static_cast<int>(resolution[1]), intrinsics,

@@ -94,6 +94,9 @@ TEST_CASE("Each bad rig input gets a message naming file, key and expectation", 
       {"zero focal length", Mutate("458.654", "0"), {"rig.yaml", "cameras[0].intrinsics"}},
       {"resolution", Mutate("[752, 480]", "[752.5, 480]"),
        {"rig.yaml", "cameras[0].resolution", "whole numbers"}},
+      // Found by fuzz_rig_yaml: converting 1.1e18 to int was undefined behaviour.
+      {"huge resolution", Mutate("[752, 480]", "[1.11111e18, 480]"),
+       {"rig.yaml", "cameras[0].resolution", "from 1 to 65535"}},
       {"no cameras section", Mutate("cameras:", "camerass:"), {"rig.yaml", "cameras"}},
       {"invalid yaml", Mutate("rate_hz: 200", "rate_hz: [200"), {"rig.yaml", "valid YAML"}},
   };
