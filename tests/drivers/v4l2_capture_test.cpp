@@ -7,7 +7,9 @@
 
 #ifdef VILMA_HAVE_DRIVER_V4L2
 #include <linux/videodev2.h>
+#include <unistd.h>
 
+#include <cerrno>
 #include <thread>
 #include <vector>
 
@@ -298,6 +300,46 @@ TEST_CASE("v4l2 a first open that cannot work is an error naming the device and 
 
   options.buffers = 1;
   CHECK_THROWS_AS(V4l2Capture(&fake, options, &status, Measure, nullptr), InputError);
+}
+
+TEST_CASE("v4l2 the kernel wrapper: a device that is not V4L2, poll and open errors", "[v4l2]") {
+  SystemV4l2Io io;
+  // /dev/null opens but answers no V4L2 ioctl (ENOTTY): the capture says so.
+  DriverStatus status("test");
+  CaptureOptions options;
+  options.device = "/dev/null";
+  V4l2Capture capture(&io, options, &status, Measure, nullptr);
+  try {
+    capture.Open();
+    FAIL("/dev/null opened as a camera");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()).find("/dev/null: VIDIOC_QUERYCAP failed") != std::string::npos);
+  }
+  CHECK(io.Open("/nonexistent/video0") == -ENOENT);
+  CHECK(io.ResolveNode("/nonexistent/video0").empty());
+  CHECK(io.ResolveNode("/dev/null") == "/dev/null");
+  const int fd = io.Open("/dev/null");
+  REQUIRE(fd >= 0);
+  v4l2_capability cap{};
+  CHECK(io.Ioctl(fd, VIDIOC_QUERYCAP, &cap) == -ENOTTY);
+  CHECK(io.Map(fd, 4096, 0) == nullptr);  // /dev/null has no mmap (ENODEV)
+  io.Close(fd);
+  // Poll: a pipe with data is ready, an empty one times out, a hung-up one is an error.
+  int pipe_fds[2];
+  REQUIRE(::pipe(pipe_fds) == 0);
+  CHECK(io.Poll(pipe_fds[0], 0) == 0);
+  REQUIRE(::write(pipe_fds[1], "x", 1) == 1);
+  CHECK(io.Poll(pipe_fds[0], 0) == 1);
+  char byte = 0;
+  REQUIRE(::read(pipe_fds[0], &byte, 1) == 1);
+  ::close(pipe_fds[1]);
+  CHECK(io.Poll(pipe_fds[0], 0) == -ENODEV);  // POLLHUP
+  ::close(pipe_fds[0]);
+  // Nodes are listed by number; here there may be none.
+  const std::vector<std::string> nodes = io.ListDeviceNodes();
+  for (std::size_t i = 1; i < nodes.size(); ++i) CHECK(nodes[i - 1] != nodes[i]);
+  const int64_t t0 = io.MonotonicNowNs();
+  CHECK(io.MonotonicNowNs() >= t0);
 }
 
 }  // namespace
