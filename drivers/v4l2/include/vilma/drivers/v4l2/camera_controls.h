@@ -44,8 +44,9 @@ std::string ControlKey(const std::string& name);
 // value and the range the camera allows.
 std::string ApplyControls(V4l2Io* io, int fd, const ControlOptions& options, ControlReport* report);
 
-// The current exposure [us] from V4L2_CID_EXPOSURE_ABSOLUTE (also in auto mode, where UVC
-// cameras report what the auto exposure chose); 0 if the camera has no such control.
+// The exposure [us] V4L2_CID_EXPOSURE_ABSOLUTE reports; 0 if the camera has no such control.
+// In auto mode many UVC cameras report the auto exposure's current time, some only the last
+// manual value (then mid-exposure stamps are off by half the difference).
 int64_t ReadExposureUs(V4l2Io* io, int fd);
 
 // Every control the camera has, one line each: name, type, range, step, default, current
