@@ -90,8 +90,7 @@ euroc_map() {
   echo "$map"
 }
 
-echo "| data set | queries | possible | accepted | accepted wrong (> 0.3 m or > 2 deg) | worst wrong [m / deg] | recall (correct / possible) | median error [m / deg] | rejections |"
-echo "|---|---:|---:|---:|---:|---|---:|---|---|"
+"$acc" header
 for set in $sets; do
   case "$set" in
     kitti)

@@ -128,6 +128,8 @@ LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::
     Read(n, "rival_exclusion_factor", &a.rival_exclusion_factor);
     Read(n, "max_rival_ratio", &a.max_rival_ratio);
     Read(n, "rival_max_iterations", &a.rival_max_iterations);
+    Read(n, "rival_min_position_m", &a.rival_min_position_m);
+    Read(n, "rival_min_rotation_deg", &a.rival_min_rotation_deg);
     n.CheckNoUnknownKeys();
   }
   root.CheckNoUnknownKeys();

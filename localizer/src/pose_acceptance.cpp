@@ -102,6 +102,8 @@ std::string PoseAcceptanceOptions::Validate() const {
     return "max_rival_ratio: expected in (0, 1]";
   }
   if (rival_max_iterations < 1) return "rival_max_iterations: expected >= 1";
+  if (!(rival_min_position_m >= 0.0)) return "rival_min_position_m: expected >= 0";
+  if (!(rival_min_rotation_deg >= 0.0)) return "rival_min_rotation_deg: expected >= 0";
   return "";
 }
 
@@ -263,12 +265,25 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
     q.rival_inliers = 0;
     PoseRansacOptions rival_options = ransac;
     rival_options.min_inliers = 4;
-    rival_options.max_iterations = options.rival_max_iterations;
+    // Only a rival at the gate matters: with r = its share of the pool, RANSAC finds such a
+    // model with ransac.probability after log(1 - p) / log(1 - r^3) samples; no need for more.
+    const double gate_inliers = std::max(4.0, std::ceil(options.max_rival_ratio * q.inliers));
+    const double r = std::min(1.0, gate_inliers / std::max<std::size_t>(1, rival_keypoints.size()));
+    const double needed = r >= 1.0 ? 1.0
+                                   : std::ceil(std::log(1.0 - ransac.probability) /
+                                               std::log(1.0 - r * r * r));
+    rival_options.max_iterations =
+        static_cast<int>(std::min<double>(options.rival_max_iterations, std::max(1.0, needed)));
     rival_options.seed = ransac.seed + 1;
     if (rival_keypoints.size() >= 4) {
       const PoseResult rival = EstimateCameraPose(camera, rival_keypoints, rival_points, rival_options);
       if (rival.status == PoseStatus::kOk || rival.status == PoseStatus::kTooFewInliers) {
-        q.rival_inliers = static_cast<int>(rival.inliers.size());
+        q.rival_position_m = (rival.T_G_C.translation() - out.T_G_C.translation()).norm();
+        q.rival_rotation_deg =
+            AngleBetween(rival.T_G_C.rotation(), out.T_G_C.rotation()) * 180.0 / M_PI;
+        const bool same_answer = q.rival_position_m <= options.rival_min_position_m &&
+                                 q.rival_rotation_deg <= options.rival_min_rotation_deg;
+        q.rival_inliers = same_answer ? 0 : static_cast<int>(rival.inliers.size());
       }
     }
     q.rival_ratio = static_cast<double>(q.rival_inliers) / q.inliers;

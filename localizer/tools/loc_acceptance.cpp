@@ -37,6 +37,7 @@ constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2;
 
 void PrintHelp(std::ostream& out) {
   out << "usage: vilma-loc-acceptance kitti KITTI_DIR [--scenario NAME]... [common options]\n"
+         "       vilma-loc-acceptance header   (the table's header only)\n"
          "       vilma-loc-acceptance asl DATASET MAP.vlocmap [--name NAME] [--every N]\n"
          "                            [--first N] [--camera C] [--rig RIG.yaml]\n"
          "                            [--swap F] [--max-keypoints N] [--box X0,Y0,X1,Y1]\n"
@@ -123,8 +124,12 @@ Args Parse(const std::vector<std::string>& argv) {
     }
   }
   if (a.help) return a;
-  if (positional.empty()) throw UsageError("expected 'kitti' or 'asl'");
+  if (positional.empty()) throw UsageError("expected 'kitti', 'asl' or 'header'");
   a.mode = positional[0];
+  if (a.mode == "header") {
+    if (positional.size() != 1) throw UsageError("header: no arguments");
+    return a;
+  }
   const std::string error = a.perturbation.Validate();
   if (!error.empty()) throw UsageError("query perturbation: " + error);
   if (a.mode == "kitti") {
@@ -140,7 +145,7 @@ Args Parse(const std::vector<std::string>& argv) {
     a.input = positional[1];
     a.map = positional[2];
   } else {
-    throw UsageError("expected 'kitti' or 'asl', got '" + a.mode + "'");
+    throw UsageError("expected 'kitti', 'asl' or 'header', got '" + a.mode + "'");
   }
   return a;
 }
@@ -272,7 +277,9 @@ int main(int argc, char** argv) {
     cv::setNumThreads(1);  // deterministic, one core
     const LocalizerOptions options =
         a.config.empty() ? LocalizerOptions() : LoadLocalizerOptions(a.config);
-    if (a.mode == "kitti") {
+    if (a.mode == "header") {
+      WriteAcceptanceHeader(std::cout);
+    } else if (a.mode == "kitti") {
       RunKitti(a, options, std::cout);
     } else {
       RunAsl(a, options, std::cout);

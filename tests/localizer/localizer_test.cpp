@@ -116,6 +116,8 @@ TEST_CASE("localizer options: the shipped YAML parses to the defaults", "[locali
   CHECK(o.acceptance.rival_exclusion_factor == d.acceptance.rival_exclusion_factor);
   CHECK(o.acceptance.max_rival_ratio == d.acceptance.max_rival_ratio);
   CHECK(o.acceptance.rival_max_iterations == d.acceptance.rival_max_iterations);
+  CHECK(o.acceptance.rival_min_position_m == d.acceptance.rival_min_position_m);
+  CHECK(o.acceptance.rival_min_rotation_deg == d.acceptance.rival_min_rotation_deg);
   CHECK(d.Validate().empty());
 }
 

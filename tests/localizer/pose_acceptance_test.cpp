@@ -194,6 +194,7 @@ TEST_CASE("pose acceptance: each gate rejects its constructed case", "[localizat
     const AcceptedPose a = Run(cam, s);
     CHECK(a.verdict == PoseVerdict::kAmbiguousPose);
     CHECK(a.quality.rival_ratio > 0.8);
+    CHECK(a.quality.rival_position_m > 0.5);
     PoseAcceptanceOptions no_rival;
     no_rival.rival_check = false;
     CHECK(Run(cam, s, no_rival).verdict == PoseVerdict::kAccepted);
@@ -286,4 +287,8 @@ TEST_CASE("pose acceptance: options validate each field", "[localization]") {
   CHECK_THAT(bad([](auto& o) { o.max_rival_ratio = 0.0; }), Catch::Contains("max_rival_ratio"));
   CHECK_THAT(bad([](auto& o) { o.rival_max_iterations = 0; }),
              Catch::Contains("rival_max_iterations"));
+  CHECK_THAT(bad([](auto& o) { o.rival_min_position_m = -1.0; }),
+             Catch::Contains("rival_min_position_m"));
+  CHECK_THAT(bad([](auto& o) { o.rival_min_rotation_deg = -1.0; }),
+             Catch::Contains("rival_min_rotation_deg"));
 }

@@ -66,6 +66,8 @@ struct AcceptanceQuery {
   double position_sigma_m = 0.0;     // sqrt of the largest eigenvalue of the position covariance
   double rotation_sigma_deg = 0.0;   // likewise of the rotation covariance (IMU frame)
   PoseQuality quality;               // what the acceptance gates measured
+  double localize_ms = 0.0;          // Localize() thread CPU time (match + pose + gates)
+  double pose_ms = 0.0;              // of which RANSAC, refinement and gates (CPU)
 };
 
 // Localizes one query (camera C with extrinsics T_I_C) and judges it against T_G_I_gt.
@@ -88,6 +90,9 @@ struct AcceptanceSummary {
   double median_rotation_error_deg = 0.0;
   double max_wrong_position_error_m = 0.0;
   double max_wrong_rotation_error_deg = 0.0;
+  double p50_localize_ms = 0.0;
+  double p50_pose_ms = 0.0;
+  double max_localize_ms = 0.0;
   LocalizerStats stats;
 };
 

@@ -29,9 +29,10 @@ struct PoseAcceptanceOptions {
   // pose has errors of the keypoint and map noise; agreements by chance spread uniformly over
   // the disc (median 0.71, p90 0.95 of the threshold). The defaults reject only inlier sets
   // worse than chance: real correct poses reach a median of 0.68 (KITTI, map depth noise), so
-  // this distribution separates little on real data (docs/localizer.md, "Acceptance").
+  // this distribution separates little on real data (docs/localizer.md, "Acceptance"); the
+  // p90 gate is off (1.0) by default: correct KITTI poses reach 0.97.
   double max_median_error_ratio = 0.7;
-  double max_p90_error_ratio = 0.95;
+  double max_p90_error_ratio = 1.0;
   // Spread of the inliers in the image: the share of the grid_cols x grid_rows cells that hold
   // an inlier, and the area of their convex hull over the image area.
   int grid_cols = 8;
@@ -52,7 +53,13 @@ struct PoseAcceptanceOptions {
   bool rival_check = true;
   double rival_exclusion_factor = 2.0;
   double max_rival_ratio = 0.3;
-  int rival_max_iterations = 300;
+  // At most this many rival samples; fewer when a rival at the gate (max_rival_ratio x the
+  // winner's inliers) would be found with ransac.probability sooner.
+  int rival_max_iterations = 1000;
+  // A rival within both of these of the winner is the same answer (e.g. fitted to duplicate
+  // landmarks of the winner's points, whose depths differ) and does not count.
+  double rival_min_position_m = 0.3;
+  double rival_min_rotation_deg = 2.0;
   std::string Validate() const;
 };
 
@@ -81,8 +88,10 @@ struct PoseQuality {
   double residual_sigma_px = -1.0;  // sqrt(sum e^2 / (2n - 6)) over the inliers
   double position_sigma_m = -1.0;
   double rotation_sigma_deg = -1.0;
-  int rival_inliers = -1;
+  int rival_inliers = -1;           // of a rival that differs from the winner (else 0)
   double rival_ratio = -1.0;
+  double rival_position_m = -1.0;   // how far the best rival model is from the winner
+  double rival_rotation_deg = -1.0;
 };
 
 struct AcceptedPose {

@@ -15,7 +15,11 @@ namespace vilma::localizer {
 
 struct PoseRansacOptions {
   double threshold_px = 2.0;        // inlier reprojection threshold [px]
-  int max_iterations = 1000;
+  // Adaptive: RANSAC stops once `probability` is reached for the best inlier ratio so far, so
+  // only queries with few inliers run this many; 3000 rather than 1000 because among 300-500
+  // matches with 5-10 % inliers the right model is otherwise often never sampled and a wrong
+  // one wins (docs/localizer.md, "Acceptance": EuRoC halves).
+  int max_iterations = 3000;
   double probability = 0.999;       // RANSAC stops early at this success probability
   int min_inliers = 10;
   int refine_iterations = 10;       // Gauss-Newton iterations (0: no refinement)
