@@ -328,7 +328,7 @@ int RunLocalizeCommand(const std::vector<std::string>& args, std::ostream& out, 
         << "  queries    every " << o.every << (o.every == 1 ? " frame" : " frames") << " of "
         << frames.size() << "\n";
     if (!o.quiet) {
-      out << "  frame      t[s]  status                 kpts   raw match  inl   e_p[m] e_R[deg]"
+      out << "  frame      t[s]  status                     kpts   raw match  inl   e_p[m] e_R[deg]"
              "  feat_ms   loc_ms\n";
     }
 
@@ -402,7 +402,7 @@ int RunLocalizeCommand(const std::vector<std::string>& args, std::ostream& out, 
       for (const Query& q : queries) {
         out << std::setw(7) << q.frame << std::setw(10) << std::setprecision(3)
             << static_cast<double>(q.t_ns - frames.front().t_ns) * 1e-9 << "  " << std::left
-            << std::setw(20) << localizer::LocalizationStatusName(q.status) << std::right
+            << std::setw(24) << localizer::LocalizationStatusName(q.status) << std::right
             << std::setw(6) << q.keypoints << std::setw(6) << q.raw_matches << std::setw(6)
             << q.matches << std::setw(5) << q.inliers;
         if (q.has_error && errors_valid) {
