@@ -429,10 +429,10 @@ void WriteKittiReport(std::ostream& out, const KittiLocalizationReport& report,
   out << std::fixed << std::setprecision(1) << "map build " << report.map_build_ms
       << " ms, projection training " << report.projection_train_ms << " ms, index build "
       << report.index_build_ms << " ms\n\n";
-  out << "frame  status            kpts  raw  cov  inl   pos[m]  rot[deg]  ok  extract  "
+  out << "frame  status                    kpts  raw  cov  inl   pos[m]  rot[deg]  ok  extract  "
          "match   pose [ms]\n";
   for (const KittiQueryResult& q : report.queries) {
-    out << std::setw(5) << q.frame << "  " << std::left << std::setw(16)
+    out << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
         << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
         << std::setw(5) << q.raw_matches << std::setw(5) << q.matches << std::setw(5)
         << q.inliers;
