@@ -21,7 +21,7 @@
 #                          made with scripts/make-datasets.sh)
 #   BENCH_WORK             maps and outputs (default ~/.cache/vilma/loc-acceptance)
 #   BENCH_SETS             subset: any of "kitti euroc sim" (default all three)
-# Takes ~3 minutes on 2 cores (maps are reused while newer than their inputs and binaries).
+# Takes ~5 minutes on 2 cores (maps are reused while newer than their inputs and binaries).
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -37,7 +37,7 @@ while [ $# -gt 0 ]; do
   case "$1" in
     --config) [ $# -ge 2 ] || { echo "bench-localizer-acceptance: --config: expected a file" >&2; exit 2; }
               config=(--config "$2"); shift 2 ;;
-    -h | --help) sed -n '2,27p' "$0"; exit 0 ;;
+    -h | --help) sed -n '2,/^set -euo/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-localizer-acceptance: unknown argument '$1'" >&2; exit 2 ;;
   esac
 done
