@@ -3,7 +3,7 @@
 # the libFuzzer harnesses with clang + ASan + UBSan in <repo>/build-fuzz, writes each harness's
 # seed corpus (valid inputs made by vilma's own writers), runs each harness for the given time
 # or number of executions, and prints a table: executions, exec/s, corpus size, crashes,
-# timeouts (> 1 s), out-of-memory, leaks. Corpora persist in the cache folder, so campaigns
+# timeouts (> 1 s), out-of-memory, leaks found by this run. Corpora persist in the cache folder, so campaigns
 # continue where the last one stopped. Exit status 1 when anything was found.
 #
 # Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [HARNESS ...]
@@ -69,6 +69,7 @@ run_one() {
   local limit=(-max_total_time=$(awk "BEGIN { printf \"%d\", $minutes * 60 }"))
   [ -n "$runs" ] && limit=(-runs="$runs")
   local start=$(date +%s)
+  touch "$dir/run-start"  # findings newer than this are this run's
   # -timeout=1: an input that takes more than 1 s is a hang; -rss_limit_mb: a decoder must not
   # allocate what a field claims before checking it against the input's size.
   set +e
@@ -80,7 +81,7 @@ run_one() {
   local seconds=$(( $(date +%s) - start ))
   local execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
   local rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
-  count() { find "$dir/findings" -name "$1-*" 2> /dev/null | wc -l; }
+  count() { find "$dir/findings" -name "$1-*" -newer "$dir/run-start" 2> /dev/null | wc -l; }
   printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "${execs:-?}" "${rate:-?}" \
     "$(ls "$dir/corpus" | wc -l)" "$(count crash)" "$(count timeout)" "$(count oom)" \
     "$(count leak)" "$([ $status -eq 0 ] && echo ok || echo "FOUND (exit $status, $seconds s): $dir/last-run.log")"
