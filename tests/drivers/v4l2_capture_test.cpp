@@ -223,6 +223,7 @@ TEST_CASE("v4l2 a camera that comes back as another /dev/videoN is found by its 
   Recorder rec;
   CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
   options.device = "/dev/video0";
+  options.controls.exposure_us = 3000;
   V4l2Capture capture(&fake, options, &status, Measure, rec.Log());
   capture.Open();
   fake.UnplugAfterFrames(10, 0.2, "/dev/video2");
@@ -231,6 +232,9 @@ TEST_CASE("v4l2 a camera that comes back as another /dev/videoN is found by its 
   CHECK(capture.node() == "/dev/video2");
   CHECK(status.Counter(kStatusReconnects) == 1);
   CHECK(rec.frames.size() >= 30);
+  // The replugged camera started from its defaults: the controls were set again.
+  CHECK(fake.ControlValue(V4L2_CID_EXPOSURE_AUTO) == V4L2_EXPOSURE_MANUAL);
+  CHECK(fake.ControlValue(V4L2_CID_EXPOSURE_ABSOLUTE) == 30);
 }
 
 TEST_CASE("v4l2 a long outage backs off and is recovered, a stall restarts the stream", "[v4l2]") {
