@@ -265,6 +265,26 @@ TEST_CASE("v4l2 a long outage backs off and is recovered, a stall restarts the s
   CHECK(stalled_status.Counter(kCounterDeviceLost) == 0);
 }
 
+TEST_CASE("v4l2 a step of the realtime clock moves the stamps and is counted", "[v4l2]") {
+  FakeV4l2Io fake;
+  DriverStatus status("test");
+  Recorder rec;
+  CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
+  options.timestamps.offset_refresh_s = 0.0;  // every frame
+  std::atomic<int> measurements{0};
+  // REALTIME - MONOTONIC as measured, stepped by +3 s from the 20th measurement on (ntpdate).
+  auto measure = [&measurements] {
+    return MeasureRealtimeMinusMonotonicNs(4) + (++measurements > 20 ? 3000000000LL : 0);
+  };
+  V4l2Capture capture(&fake, options, &status, measure, rec.Log());
+  capture.Open();
+  capture.Run(nullptr, 0.6, rec.Callback());
+  REQUIRE(rec.frames.size() >= 25);
+  CHECK(status.Counter(kStatusTimestampResets) == 1);
+  const int64_t jump = rec.frames[20].robot_ns - rec.frames[19].robot_ns;
+  CHECK(std::llabs(jump - 3000000000LL - 16666666) < 1000000);
+}
+
 TEST_CASE("v4l2 buffers without monotonic stamps are stamped at dequeue, counted", "[v4l2]") {
   FakeCameraSpec spec;
   spec.timestamp_flags = V4L2_BUF_FLAG_TIMESTAMP_COPY;
