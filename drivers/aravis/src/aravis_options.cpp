@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "vilma/core/arg_cursor.h"
+#include "vilma/core/clock_sync_yaml.h"
 #include "vilma/core/error.h"
 #include "vilma/core/validate.h"
 #include "vilma/core/yaml_io.h"
@@ -54,20 +55,6 @@ std::string FlagOf(const std::string& key) {
   return flag;
 }
 
-ClockSyncOptions ReadClockSync(const YamlNode& node, ClockSyncOptions o) {
-  o.window_s = node.GetOr("window_s", o.window_s);
-  o.max_window_observations = node.GetOr("max_window_observations", o.max_window_observations);
-  o.min_observations = node.GetOr("min_observations", o.min_observations);
-  o.min_skew_span_s = node.GetOr("min_skew_span_s", o.min_skew_span_s);
-  o.max_skew_ppm = node.GetOr("max_skew_ppm", o.max_skew_ppm);
-  o.outlier_threshold_ms = node.GetOr("outlier_threshold_ms", o.outlier_threshold_ms);
-  o.jump_below_threshold_ms = node.GetOr("jump_below_threshold_ms", o.jump_below_threshold_ms);
-  o.jump_confirm_s = node.GetOr("jump_confirm_s", o.jump_confirm_s);
-  node.CheckNoUnknownKeys();
-  node.CheckValid(o.Validate());
-  return o;
-}
-
 AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
   if (!root.IsMap() && !root.raw().IsNull()) root.Fail("", "a map of options");
   AravisOptions o = base;
@@ -98,7 +85,7 @@ AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
   o.timestamp_event = root.GetOr("timestamp_event", o.timestamp_event);
   o.time_offset_us = root.GetOr("time_offset_us", o.time_offset_us);
   o.transport_latency_us = root.GetOr("transport_latency_us", o.transport_latency_us);
-  if (root.Has("clock_sync")) o.clock_sync = ReadClockSync(root.MapChild("clock_sync"), o.clock_sync);
+  if (root.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(root.MapChild("clock_sync"), o.clock_sync);
   o.lcm_url = root.GetOr("lcm_url", o.lcm_url);
   o.channel = root.GetOr("channel", o.channel);
   o.channel_suffix = root.GetOr("channel_suffix", o.channel_suffix);
@@ -220,16 +207,7 @@ std::string AravisOptionsToYaml(const AravisOptions& o) {
   kv("timestamp_event", o.timestamp_event);
   kv("time_offset_us", o.time_offset_us);
   kv("transport_latency_us", o.transport_latency_us);
-  out << YAML::Key << "clock_sync" << YAML::Value << YAML::BeginMap;
-  kv("window_s", o.clock_sync.window_s);
-  kv("max_window_observations", o.clock_sync.max_window_observations);
-  kv("min_observations", o.clock_sync.min_observations);
-  kv("min_skew_span_s", o.clock_sync.min_skew_span_s);
-  kv("max_skew_ppm", o.clock_sync.max_skew_ppm);
-  kv("outlier_threshold_ms", o.clock_sync.outlier_threshold_ms);
-  kv("jump_below_threshold_ms", o.clock_sync.jump_below_threshold_ms);
-  kv("jump_confirm_s", o.clock_sync.jump_confirm_s);
-  out << YAML::EndMap;
+  EmitClockSyncOptions(out, "clock_sync", o.clock_sync);
   kv("lcm_url", o.lcm_url);
   kv("channel", o.channel);
   kv("channel_suffix", o.channel_suffix);

@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "vilma/core/arg_cursor.h"
+#include "vilma/core/clock_sync_yaml.h"
 #include "vilma/core/error.h"
 #include "vilma/core/validate.h"
 #include "vilma/drivers/driver_status.h"
@@ -118,22 +119,6 @@ std::string UsbImuOptions::Validate() const {
   return "";
 }
 
-ClockSyncOptions ReadClockSyncOptions(const YamlNode& node) {
-  if (!node.IsMap()) node.Fail("", "expected a map of clock sync options");
-  ClockSyncOptions o;
-  o.window_s = node.GetOr("window_s", o.window_s);
-  o.max_window_observations = node.GetOr("max_window_observations", o.max_window_observations);
-  o.min_observations = node.GetOr("min_observations", o.min_observations);
-  o.min_skew_span_s = node.GetOr("min_skew_span_s", o.min_skew_span_s);
-  o.max_skew_ppm = node.GetOr("max_skew_ppm", o.max_skew_ppm);
-  o.outlier_threshold_ms = node.GetOr("outlier_threshold_ms", o.outlier_threshold_ms);
-  o.jump_below_threshold_ms = node.GetOr("jump_below_threshold_ms", o.jump_below_threshold_ms);
-  o.jump_confirm_s = node.GetOr("jump_confirm_s", o.jump_confirm_s);
-  node.CheckNoUnknownKeys();
-  node.CheckValid(o.Validate());
-  return o;
-}
-
 UsbImuOptions ReadUsbImuOptions(const YamlNode& node) {
   UsbImuOptions o;
   if (node.raw().IsNull()) return o;  // an empty file: all defaults
@@ -167,7 +152,7 @@ UsbImuOptions ReadUsbImuOptions(const YamlNode& node) {
   o.command_retries = node.GetOr("command_retries", o.command_retries);
   o.time_source = node.GetOr("time_source", o.time_source);
   o.transport_latency_us = node.GetOr("transport_latency_us", o.transport_latency_us);
-  if (node.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(node.MapChild("clock_sync"));
+  if (node.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(node.MapChild("clock_sync"), o.clock_sync);
   o.lcm_url = node.GetOr("lcm_url", o.lcm_url);
   o.channel = node.GetOr("channel", o.channel);
   o.channel_suffix = node.GetOr("channel_suffix", o.channel_suffix);
@@ -210,16 +195,7 @@ std::string UsbImuOptionsToYaml(const UsbImuOptions& o) {
   kv("command_retries", o.command_retries);
   kv("time_source", o.time_source);
   kv("transport_latency_us", o.transport_latency_us);
-  out << YAML::Key << "clock_sync" << YAML::Value << YAML::BeginMap;
-  kv("window_s", o.clock_sync.window_s);
-  kv("max_window_observations", o.clock_sync.max_window_observations);
-  kv("min_observations", o.clock_sync.min_observations);
-  kv("min_skew_span_s", o.clock_sync.min_skew_span_s);
-  kv("max_skew_ppm", o.clock_sync.max_skew_ppm);
-  kv("outlier_threshold_ms", o.clock_sync.outlier_threshold_ms);
-  kv("jump_below_threshold_ms", o.clock_sync.jump_below_threshold_ms);
-  kv("jump_confirm_s", o.clock_sync.jump_confirm_s);
-  out << YAML::EndMap;
+  EmitClockSyncOptions(out, "clock_sync", o.clock_sync);
   kv("lcm_url", o.lcm_url);
   kv("channel", o.channel);
   kv("channel_suffix", o.channel_suffix);
