@@ -107,6 +107,35 @@ TEST_CASE("v4l2 frames arrive at the camera's rate with its pictures and mid-exp
   CHECK(capture.node().empty());
 }
 
+TEST_CASE("v4l2 uvcvideo's host stamps are taken as the end of exposure", "[v4l2]") {
+  // The same mid-exposure instant whether the camera stamps the start of exposure or, as
+  // uvcvideo without hardware timestamps does, the first packet under an SOE flag.
+  for (const bool hardware_stamps : {true, false}) {
+    CAPTURE(hardware_stamps);
+    FakeCameraSpec spec;
+    spec.driver = "uvcvideo";
+    spec.uvc_hw_timestamps = hardware_stamps;
+    FakeV4l2Io fake(spec);
+    DriverStatus status("test");
+    Recorder rec;
+    CaptureOptions options = Options(V4L2_PIX_FMT_GREY, 60);
+    options.controls.exposure_us = 8000;
+    options.timestamps.offset_refresh_s = 0.0;
+    int64_t offset = 0;
+    V4l2Capture capture(
+        &fake, options, &status, [&offset] { return offset = MeasureRealtimeMinusMonotonicNs(4); },
+        rec.Log());
+    capture.Open();
+    capture.Run(nullptr, 0.3, rec.Callback());
+    REQUIRE(rec.frames.size() >= 5);
+    // Frame k completes (ends its exposure: the fake reads out instantly) at ready_k; its
+    // SOE stamp is ready_k - 8 ms, its first packet ready_k. Mid-exposure: ready_k - 4 ms.
+    const Frame& f = rec.frames.back();
+    const int64_t ready_ns = hardware_stamps ? f.buffer_ns + 8000000 : f.buffer_ns;
+    CHECK(std::llabs(f.robot_ns - offset - (ready_ns - 4000000)) < 100000);
+  }
+}
+
 TEST_CASE("v4l2 every pixel format reaches the callback as the camera's picture", "[v4l2]") {
   struct Case {
     uint32_t fourcc;

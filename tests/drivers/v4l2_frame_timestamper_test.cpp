@@ -42,6 +42,33 @@ TEST_CASE("v4l2 start-of-exposure and end-of-frame stamps become mid-exposure", 
   CHECK(stamper.fallbacks() == 0);
 }
 
+TEST_CASE("v4l2 end-of-exposure stamps (uvcvideo without hardware timestamps)", "[v4l2]") {
+  const int64_t t = 7000 * kMs;
+  FrameTimestamper stamper(TimestampOptions{}, [] { return int64_t{0}; });
+  CHECK(stamper.EffectivePoint(kSoe) == StampPoint::kStartOfExposure);
+  CHECK(stamper.EffectivePoint(kEof) == StampPoint::kEndOfFrame);
+  // The device says: these SOE-flagged stamps are first-packet arrivals.
+  stamper.SetDeviceStampPoint(StampPoint::kEndOfExposure);
+  CHECK(stamper.EffectivePoint(kSoe) == StampPoint::kEndOfExposure);
+  StampedFrame f = stamper.Stamp(kSoe, t, t + 20 * kMs, 10 * kMs);
+  CHECK(f.mid_monotonic_ns == t - 5 * kMs);
+  CHECK(f.end_of_frame_monotonic_ns == t);
+  // The option wins over the device and the flags.
+  TimestampOptions options;
+  options.stamp_source = StampPoint::kEndOfFrame;
+  options.readout_us = 3000;
+  FrameTimestamper forced(options, [] { return int64_t{0}; });
+  forced.SetDeviceStampPoint(StampPoint::kEndOfExposure);
+  f = forced.Stamp(kSoe, t, t + 20 * kMs, 10 * kMs);
+  CHECK(f.mid_monotonic_ns == t - 3 * kMs - 5 * kMs);
+  StampPoint point;
+  CHECK(ParseStampPoint("end_of_exposure", &point));
+  CHECK(point == StampPoint::kEndOfExposure);
+  CHECK(ParseStampPoint("auto", &point));
+  CHECK(point == StampPoint::kFromFlags);
+  CHECK_FALSE(ParseStampPoint("soe", &point));
+}
+
 TEST_CASE("v4l2 stamps that are not monotonic or not plausible fall back to the dequeue time",
           "[v4l2]") {
   TimestampOptions options;

@@ -92,6 +92,8 @@ TEST_CASE("v4l2 bad YAML options name the file, the key and the expectation", "[
   CHECK(YamlError("exposure: -5\n").find("exposure: auto or a positive exposure time [us]") !=
         std::string::npos);
   CHECK(YamlError("buffers: 64\n") == "v4l2.yaml: buffers: expected 2 .. 32");
+  CHECK(YamlError("timestamps: {stamp_source: soe}\n").find("timestamps.stamp_source: auto,") !=
+        std::string::npos);
   CHECK(YamlError("width: 640\n").find("width: expected width and height both") !=
         std::string::npos);
   CHECK(YamlError("channel: cam0\n").find("channel: channel name 'cam0'") != std::string::npos);
@@ -136,7 +138,9 @@ TEST_CASE("v4l2 command-line flags override the config file in any order", "[v4l
                                         "100",
                                         "--require-size",
                                         "--status-period-s",
-                                        "0.5"});
+                                        "0.5",
+                                        "--stamp-source",
+                                        "end_of_frame"});
   CHECK(o.capture.device == "/dev/video3");
   CHECK(o.capture.format.width == 320);
   CHECK(o.capture.format.height == 240);
@@ -157,6 +161,7 @@ TEST_CASE("v4l2 command-line flags override the config file in any order", "[v4l
   CHECK(o.capture.timestamps.readout_us == 100.0);
   CHECK(o.capture.format.require_size);
   CHECK(o.status_period_s == 0.5);
+  CHECK(o.capture.timestamps.stamp_source == StampPoint::kEndOfFrame);
   CHECK(o.config_file == path);
 }
 
@@ -169,6 +174,8 @@ TEST_CASE("v4l2 bad command lines are usage errors that say what is wrong", "[v4
   CHECK(UsageErrorOf({"--exposure", "0"}).find("--exposure") != std::string::npos);
   CHECK(UsageErrorOf({"--gain", "-2"}).find("--gain") != std::string::npos);
   CHECK(UsageErrorOf({"--control", "brightness"}).find("NAME=INTEGER") != std::string::npos);
+  CHECK(UsageErrorOf({"--stamp-source", "middle"}).find("--stamp-source: 'middle'") !=
+        std::string::npos);
   CHECK(UsageErrorOf({"--fake=yes"}).find("takes no value") != std::string::npos);
   CHECK(UsageErrorOf({"--buffers", "1"}).find("buffers: expected 2 .. 32") != std::string::npos);
   CHECK(UsageErrorOf({"--channel"}).find("expected a value") != std::string::npos);
@@ -230,6 +237,7 @@ TEST_CASE("v4l2 the usage text (--help) names every flag the parser knows", "[v4
                            "--gain",
                            "--control",
                            "--readout-us",
+                           "--stamp-source",
                            "--buffer-stamps",
                            "--lcm-url",
                            "--channel",

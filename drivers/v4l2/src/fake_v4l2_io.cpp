@@ -216,6 +216,12 @@ std::string FakeV4l2Io::ResolveNode(const std::string& path) {
 
 int64_t FakeV4l2Io::MonotonicNowNs() { return SystemMonotonicNs(); }
 
+int FakeV4l2Io::UvcHardwareTimestamps() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (state_->spec.driver != "uvcvideo") return -1;
+  return state_->spec.uvc_hw_timestamps ? 1 : 0;
+}
+
 void FakeV4l2Io::DropSequences(const std::set<int64_t>& sequences) {
   std::lock_guard<std::mutex> lock(mutex_);
   state_->drop_sequences = sequences;

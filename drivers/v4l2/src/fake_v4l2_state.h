@@ -250,7 +250,9 @@ struct FakeV4l2Io::State {
       if (ready_ns + delivery_delay_ns > now_ns) return;
       const bool soe =
           (spec.timestamp_flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
-      const int64_t stamp_ns = soe ? ready_ns - ExposureNs() : ready_ns;
+      // uvcvideo without hardware stamps: the first packet's arrival, flagged SOE all the same.
+      const bool first_packet = spec.driver == "uvcvideo" && !spec.uvc_hw_timestamps;
+      const int64_t stamp_ns = soe && !first_packet ? ready_ns - ExposureNs() : ready_ns;
       const int64_t sequence = next_sequence++;
       ++stats.frames_due;
       if (unplug_after_frames >= 0 && stats.frames_due >= unplug_after_frames) {

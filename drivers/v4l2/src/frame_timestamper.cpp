@@ -7,6 +7,38 @@
 
 namespace vilma::v4l2 {
 
+bool ParseStampPoint(const std::string& text, StampPoint* point) {
+  for (StampPoint p : {StampPoint::kFromFlags, StampPoint::kStartOfExposure,
+                       StampPoint::kEndOfExposure, StampPoint::kEndOfFrame}) {
+    if (text == StampPointName(p)) {
+      *point = p;
+      return true;
+    }
+  }
+  return false;
+}
+
+std::string StampPointName(StampPoint point) {
+  switch (point) {
+    case StampPoint::kStartOfExposure:
+      return "start_of_exposure";
+    case StampPoint::kEndOfExposure:
+      return "end_of_exposure";
+    case StampPoint::kEndOfFrame:
+      return "end_of_frame";
+    default:
+      return "auto";
+  }
+}
+
+StampPoint FrameTimestamper::EffectivePoint(uint32_t buffer_flags) const {
+  if (options_.stamp_source != StampPoint::kFromFlags) return options_.stamp_source;
+  if (device_point_ != StampPoint::kFromFlags) return device_point_;
+  return (buffer_flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE
+             ? StampPoint::kStartOfExposure
+             : StampPoint::kEndOfFrame;
+}
+
 std::string TimestampOptions::Validate() const {
   if (!(std::isfinite(readout_us) && readout_us >= 0.0 && readout_us <= 1e6)) {
     return "readout_us: expected 0 .. 1000000 [us]";
@@ -32,21 +64,29 @@ StampedFrame FrameTimestamper::Stamp(uint32_t buffer_flags, int64_t buffer_ns,
   const bool plausible = buffer_ns > 0 && buffer_ns <= dequeue_monotonic_ns;
   const int64_t readout_ns = static_cast<int64_t>(std::llround(options_.readout_us * 1e3));
   int64_t stamp_ns = buffer_ns;
-  bool start_of_exposure =
-      (buffer_flags & V4L2_BUF_FLAG_TSTAMP_SRC_MASK) == V4L2_BUF_FLAG_TSTAMP_SRC_SOE;
+  StampPoint point = EffectivePoint(buffer_flags);
   if (!monotonic || !plausible) {
     frame.fallback = true;
     ++fallbacks_;
     stamp_ns = dequeue_monotonic_ns;
-    start_of_exposure = false;  // the dequeue comes after the frame's end
+    point = StampPoint::kEndOfFrame;  // the dequeue comes after the frame's end
   }
-  frame.mid_monotonic_ns = stamp_ns;
-  frame.end_of_frame_monotonic_ns =
-      start_of_exposure ? stamp_ns + exposure_ns + readout_ns : stamp_ns;
-  if (options_.mid_exposure || frame.fallback) {
-    frame.mid_monotonic_ns =
-        start_of_exposure ? stamp_ns + exposure_ns / 2 : stamp_ns - readout_ns - exposure_ns / 2;
+  // t_mid and the frame's completion from the instant the stamp marks (header comment).
+  int64_t mid_ns = stamp_ns;
+  switch (point) {
+    case StampPoint::kStartOfExposure:
+      mid_ns = stamp_ns + exposure_ns / 2;
+      frame.end_of_frame_monotonic_ns = stamp_ns + exposure_ns + readout_ns;
+      break;
+    case StampPoint::kEndOfExposure:
+      mid_ns = stamp_ns - exposure_ns / 2;
+      frame.end_of_frame_monotonic_ns = stamp_ns + readout_ns;
+      break;
+    default:  // end of frame
+      mid_ns = stamp_ns - readout_ns - exposure_ns / 2;
+      frame.end_of_frame_monotonic_ns = stamp_ns;
   }
+  frame.mid_monotonic_ns = (options_.mid_exposure || frame.fallback) ? mid_ns : stamp_ns;
 
   // REALTIME - MONOTONIC: measured at the first frame, then every offset_refresh_s.
   const int64_t refresh_ns = static_cast<int64_t>(options_.offset_refresh_s * 1e9);

@@ -130,6 +130,18 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
     return "the device cannot stream (no V4L2_CAP_STREAMING); read() I/O is not supported";
   }
 
+  // uvcvideo flags every buffer SOE, but without its hardware timestamps (the default) the
+  // stamp is the arrival of the frame's first packet: the end of exposure (frame_timestamper.h).
+  const std::string driver = reinterpret_cast<const char*>(cap.driver);
+  const bool uvc_host_stamps = driver == "uvcvideo" && io_->UvcHardwareTimestamps() != 1;
+  timestamper_.SetDeviceStampPoint(uvc_host_stamps ? StampPoint::kEndOfExposure
+                                                   : StampPoint::kFromFlags);
+  if (uvc_host_stamps && options_.timestamps.stamp_source == StampPoint::kFromFlags) {
+    Log(node_ +
+        ": uvcvideo without hardware timestamps: buffer stamps are taken as the end of "
+        "exposure (first packet)");
+  }
+
   std::string error = NegotiateFormat(io_, fd_, options_.format, &format_);
   if (!error.empty()) {
     Close();

@@ -11,6 +11,7 @@
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
 
 namespace vilma::v4l2 {
 
@@ -110,6 +111,13 @@ int64_t SystemV4l2Io::MonotonicNowNs() {
   timespec ts{};
   ::clock_gettime(CLOCK_MONOTONIC, &ts);
   return static_cast<int64_t>(ts.tv_sec) * 1000000000 + ts.tv_nsec;
+}
+
+int SystemV4l2Io::UvcHardwareTimestamps() {
+  std::ifstream in("/sys/module/uvcvideo/parameters/hwtimestamps");
+  int value = -1;
+  if (!(in >> value)) return -1;
+  return value != 0 ? 1 : 0;
 }
 
 std::string FourccName(uint32_t fourcc) {

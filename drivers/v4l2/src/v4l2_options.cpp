@@ -141,6 +141,10 @@ V4l2DriverOptions ReadV4l2Options(const YamlNode& root, const V4l2DriverOptions&
     const YamlNode t = root.MapChild("timestamps");
     c.timestamps.mid_exposure = t.GetOr<bool>("mid_exposure", c.timestamps.mid_exposure);
     c.timestamps.readout_us = NumberOr(t, "readout_us", c.timestamps.readout_us);
+    if (t.Has("stamp_source") &&
+        !ParseStampPoint(t.Get<std::string>("stamp_source"), &c.timestamps.stamp_source)) {
+      t.Fail("stamp_source", "auto, start_of_exposure, end_of_exposure or end_of_frame");
+    }
     c.timestamps.offset_refresh_s = NumberOr(t, "offset_refresh_s", c.timestamps.offset_refresh_s);
     c.timestamps.realtime_step_ms = NumberOr(t, "realtime_step_ms", c.timestamps.realtime_step_ms);
     t.CheckNoUnknownKeys();
@@ -203,6 +207,7 @@ std::string V4l2OptionsYaml(const V4l2DriverOptions& o) {
   y << "exposure_readback_s: " << c.exposure_readback_s << "\n";
   y << "timestamps:\n";
   y << "  mid_exposure: " << (c.timestamps.mid_exposure ? "true" : "false") << "\n";
+  y << "  stamp_source: " << StampPointName(c.timestamps.stamp_source) << "\n";
   y << "  readout_us: " << c.timestamps.readout_us << "\n";
   y << "  offset_refresh_s: " << c.timestamps.offset_refresh_s << "\n";
   y << "  realtime_step_ms: " << c.timestamps.realtime_step_ms << "\n";
@@ -249,6 +254,9 @@ Options (each overrides the same field of --config; defaults in brackets):
   --control NAME=VALUE  any other control by its v4l2-ctl name (repeatable), e.g.
                         --control power_line_frequency=1; unknown names are warnings
   --readout-us US       end of exposure to end of frame [us], for end-of-frame stamps [0]
+  --stamp-source S      what buffer stamps mark: auto (the buffer's flags; uvcvideo without
+                        hardware timestamps: end_of_exposure), start_of_exposure,
+                        end_of_exposure, end_of_frame [auto]
   --buffer-stamps       publish the kernel's buffer stamp, not mid-exposure
   --lcm-url URL         LCM provider [$LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0]
   --channel NAME        image channel [CAM0]
@@ -345,6 +353,12 @@ V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, boo
       c.controls.controls[text.substr(0, eq)] = value;
     } else if (name == "--readout-us") {
       c.timestamps.readout_us = number(arg);
+    } else if (name == "--stamp-source") {
+      const std::string text = arg.Value();
+      if (!ParseStampPoint(text, &c.timestamps.stamp_source)) {
+        throw UsageError("--stamp-source: '" + text +
+                         "' is not auto, start_of_exposure, end_of_exposure or end_of_frame");
+      }
     } else if (name == "--buffer-stamps") {
       c.timestamps.mid_exposure = !arg.Flag();
     } else if (name == "--lcm-url") {

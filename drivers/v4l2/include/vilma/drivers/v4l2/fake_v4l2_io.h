@@ -54,6 +54,10 @@ struct FakeCameraSpec {
   std::vector<FakeFormat> formats;  // empty = DefaultFormats()
   // Timestamp flags of every buffer (V4L2_BUF_FLAG_TIMESTAMP_* | V4L2_BUF_FLAG_TSTAMP_SRC_*).
   uint32_t timestamp_flags = 0;  // 0 = MONOTONIC | SOE
+  // With driver "uvcvideo": the module's hwtimestamps parameter. Off, the fake stamps a frame
+  // as uvcvideo then does: the arrival of its first packet (= its end of exposure here, the
+  // fake reading out instantly), still flagged SOE.
+  bool uvc_hw_timestamps = false;
   // MJPG frames as UVC cameras send them: without Huffman tables (DHT), which decoders must
   // supply (the standard tables of JPEG Annex K.3).
   bool mjpg_without_huffman_tables = true;
@@ -91,6 +95,7 @@ class FakeV4l2Io : public V4l2Io {
   std::vector<std::pair<std::string, std::string>> ListDeviceLinks() override;
   std::string ResolveNode(const std::string& path) override;
   int64_t MonotonicNowNs() override;
+  int UvcHardwareTimestamps() override;
 
   // Scripted faults. Sequence numbers count from STREAMON.
   void DropSequences(const std::set<int64_t>& sequences);     // lost in the "sensor"

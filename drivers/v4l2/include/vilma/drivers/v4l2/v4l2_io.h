@@ -39,6 +39,11 @@ class V4l2Io {
 
   // CLOCK_MONOTONIC now [ns]: the clock of the kernel's buffer stamps (the fake's own clock).
   virtual int64_t MonotonicNowNs() = 0;
+
+  // uvcvideo's module parameter hwtimestamps (/sys/module/uvcvideo/parameters/hwtimestamps):
+  // 1 when its buffer stamps come from the cameras' clocks, 0 when they are the host's
+  // arrival time of a frame's first packet, -1 when unknown (module not loaded).
+  virtual int UvcHardwareTimestamps() = 0;
 };
 
 // The kernel.
@@ -54,6 +59,7 @@ class SystemV4l2Io : public V4l2Io {
   std::vector<std::pair<std::string, std::string>> ListDeviceLinks() override;
   std::string ResolveNode(const std::string& path) override;
   int64_t MonotonicNowNs() override;
+  int UvcHardwareTimestamps() override;
 };
 
 // "GREY", "YUYV", "MJPG", "Y16 " as text ("Y16" without the trailing blank).
