@@ -161,6 +161,11 @@ TEST_CASE("v4l2 fourcc names", "[v4l2]") {
   CHECK(FourccFromName("TOOLONG") == 0);
   CHECK(IsSupportedFourcc(V4L2_PIX_FMT_MJPEG));
   CHECK_FALSE(IsSupportedFourcc(V4L2_PIX_FMT_RGB24));
+  // Name fields of V4L2 structs: up to the NUL, or the whole field when it is full.
+  const uint8_t full[4] = {'u', 'v', 'c', 'x'};
+  const uint8_t padded[8] = {'u', 'v', 'c', 0, 'j', 'u', 'n', 'k'};
+  CHECK(FieldText(full) == "uvcx");
+  CHECK(FieldText(padded) == "uvc");
 }
 
 }  // namespace

@@ -24,7 +24,7 @@ std::vector<ControlInfo> EnumerateControls(V4l2Io* io, int fd) {
     if (!skip) {
       ControlInfo info;
       info.query = query;
-      info.key = ControlKey(reinterpret_cast<const char*>(query.name));
+      info.key = ControlKey(FieldText(query.name));
       controls.push_back(info);
     }
     query.id |= V4L2_CTRL_FLAG_NEXT_CTRL;
@@ -227,7 +227,7 @@ std::string DescribeControls(V4l2Io* io, int fd) {
         menu.id = q.id;
         menu.index = static_cast<uint32_t>(i);
         if (io->Ioctl(fd, VIDIOC_QUERYMENU, &menu) == 0) {
-          out << "      " << i << ": " << reinterpret_cast<const char*>(menu.name) << "\n";
+          out << "      " << i << ": " << FieldText(menu.name) << "\n";
         }
       }
     }

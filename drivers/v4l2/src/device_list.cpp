@@ -39,9 +39,8 @@ std::string ListDevices(V4l2Io* io, int* capture_nodes) {
     }
     const uint32_t caps =
         (cap.capabilities & V4L2_CAP_DEVICE_CAPS) != 0 ? cap.device_caps : cap.capabilities;
-    out << "  driver: " << reinterpret_cast<const char*>(cap.driver)
-        << ", card: " << reinterpret_cast<const char*>(cap.card)
-        << ", bus: " << reinterpret_cast<const char*>(cap.bus_info) << "\n";
+    out << "  driver: " << FieldText(cap.driver) << ", card: " << FieldText(cap.card)
+        << ", bus: " << FieldText(cap.bus_info) << "\n";
     if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0) {
       out << "  not a video capture node"
           << ((caps & V4L2_CAP_META_CAPTURE) != 0 ? " (metadata node)" : "")

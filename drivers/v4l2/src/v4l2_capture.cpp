@@ -132,7 +132,7 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
 
   // uvcvideo flags every buffer SOE, but without its hardware timestamps (the default) the
   // stamp is the arrival of the frame's first packet: the end of exposure (frame_timestamper.h).
-  const std::string driver = reinterpret_cast<const char*>(cap.driver);
+  const std::string driver = FieldText(cap.driver);
   const bool uvc_host_stamps = driver == "uvcvideo" && io_->UvcHardwareTimestamps() != 1;
   timestamper_.SetDeviceStampPoint(uvc_host_stamps ? StampPoint::kEndOfExposure
                                                    : StampPoint::kFromFlags);

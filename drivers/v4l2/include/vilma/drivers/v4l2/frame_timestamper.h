@@ -2,8 +2,8 @@
 //
 // The kernel stamps a buffer on CLOCK_MONOTONIC (V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC) at the
 // start of exposure (V4L2_BUF_FLAG_TSTAMP_SRC_SOE; uvcvideo with hardware timestamps, from the
-// camera's own clock) or at the end of the frame (TSTAMP_SRC_EOF: the last byte received). vilma publishes
-// the middle of the exposure (image_t: "capture time (mid-exposure)"):
+// camera's own clock) or at the end of the frame (TSTAMP_SRC_EOF: the last byte received). vilma
+// publishes the middle of the exposure (image_t: "capture time (mid-exposure)"):
 //
 //   SOE:  t_mid = t_buffer + exposure / 2
 //   EOF:  t_mid = t_buffer - readout - exposure / 2

@@ -67,6 +67,15 @@ std::string FourccName(uint32_t fourcc);
 // The fourcc of a name as written in options ("GREY", "Y16", "YUYV", "MJPG"); 0 if not 4
 // characters of [A-Z0-9 ] (after padding a 3-letter name with a blank).
 uint32_t FourccFromName(const std::string& name);
+// A fixed-size name field of a V4L2 struct (driver, card, control name, ...) as text, up to
+// its first NUL or its end (a full field need not be NUL-terminated).
+template <std::size_t N>
+std::string FieldText(const uint8_t (&field)[N]) {
+  std::size_t length = 0;
+  while (length < N && field[length] != 0) ++length;
+  return std::string(reinterpret_cast<const char*>(field), length);
+}
+
 // "No such device" style text of a negative errno.
 std::string ErrnoText(int negative_errno);
 
