@@ -167,6 +167,41 @@ TEST_CASE("v4l2 every pixel format reaches the callback as the camera's picture"
   }
 }
 
+TEST_CASE("v4l2 a multi-planar-only device (MIPI receivers) streams the same frames", "[v4l2]") {
+  for (const uint32_t fourcc : {V4L2_PIX_FMT_GREY, V4L2_PIX_FMT_YUYV, V4L2_PIX_FMT_MJPEG}) {
+    CAPTURE(FourccName(fourcc));
+    FakeCameraSpec spec;
+    spec.multiplanar = true;
+    FakeV4l2Io fake(spec);
+    // The single-planar API is refused, as such a driver does.
+    const int fd = fake.Open("/dev/video0");
+    v4l2_fmtdesc desc{};
+    desc.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    CHECK(fake.Ioctl(fd, VIDIOC_ENUM_FMT, &desc) == -EINVAL);
+    fake.Close(fd);
+
+    DriverStatus status("test");
+    Recorder rec;
+    CaptureOptions options = Options(fourcc, 30);
+    options.format.width = 640;
+    options.format.height = 480;
+    V4l2Capture capture(&fake, options, &status, Measure, rec.Log());
+    capture.Open();
+    CHECK(capture.format().fourcc == fourcc);
+    CHECK(capture.format().width == 640);
+    CHECK(capture.format().bytes_per_line == (fourcc == V4L2_PIX_FMT_MJPEG  ? 0
+                                              : fourcc == V4L2_PIX_FMT_YUYV ? 1280
+                                                                            : 640));
+    capture.Run(nullptr, 0.3, rec.Callback());
+    REQUIRE(rec.frames.size() >= 5);
+    for (std::size_t i = 0; i < rec.frames.size(); ++i) {
+      CHECK(rec.frames[i].sequence == static_cast<int64_t>(i));
+      CHECK(rec.frames[i].error <= (fourcc == V4L2_PIX_FMT_MJPEG ? 12.0 : 0.0));
+    }
+    CHECK(status.Counter(kStatusMalformed) == 0);
+  }
+}
+
 TEST_CASE("v4l2 sequence gaps are counted as dropped, error buffers as malformed", "[v4l2]") {
   FakeV4l2Io fake;
   fake.DropSequences({5, 6, 7, 20});

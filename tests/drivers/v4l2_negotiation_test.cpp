@@ -165,6 +165,15 @@ TEST_CASE("v4l2 the device listing (--list) shows nodes, names, formats, sizes, 
   fake.Unplug(60.0);
   CHECK(Contains(ListDevices(&fake, &capture_nodes), "/dev/video* is absent"));
   CHECK(capture_nodes == 0);
+
+  FakeCameraSpec spec;
+  spec.multiplanar = true;
+  FakeV4l2Io mplane(spec);
+  const std::string mplane_text = ListDevices(&mplane, &capture_nodes);
+  CHECK(capture_nodes == 1);
+  CHECK(Contains(mplane_text, "  capture (multi-planar API), streaming"));
+  CHECK(Contains(mplane_text, "current format: GREY 640x480"));
+  CHECK(Contains(mplane_text, "    YUYV: 640x480, 320x240"));
 }
 
 TEST_CASE("v4l2 the fake follows the kernel's buffer queue rules", "[v4l2]") {

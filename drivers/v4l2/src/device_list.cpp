@@ -41,27 +41,29 @@ std::string ListDevices(V4l2Io* io, int* capture_nodes) {
         (cap.capabilities & V4L2_CAP_DEVICE_CAPS) != 0 ? cap.device_caps : cap.capabilities;
     out << "  driver: " << FieldText(cap.driver) << ", card: " << FieldText(cap.card)
         << ", bus: " << FieldText(cap.bus_info) << "\n";
-    if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0) {
+    const bool mplane =
+        (caps & V4L2_CAP_VIDEO_CAPTURE) == 0 && (caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) != 0;
+    if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0 && !mplane) {
       out << "  not a video capture node"
-          << ((caps & V4L2_CAP_META_CAPTURE) != 0 ? " (metadata node)" : "")
-          << ((caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) != 0
-                  ? " (multi-planar capture: not supported by vilma-v4l2)"
-                  : "")
-          << "\n";
+          << ((caps & V4L2_CAP_META_CAPTURE) != 0 ? " (metadata node)" : "") << "\n";
       io->Close(fd);
       continue;
     }
     ++*capture_nodes;
-    out << "  capture" << ((caps & V4L2_CAP_STREAMING) != 0 ? ", streaming" : ", NO streaming")
-        << "\n";
+    out << "  capture" << (mplane ? " (multi-planar API)" : "")
+        << ((caps & V4L2_CAP_STREAMING) != 0 ? ", streaming" : ", NO streaming") << "\n";
+    const uint32_t type = mplane ? V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE : V4L2_BUF_TYPE_VIDEO_CAPTURE;
     v4l2_format current{};
-    current.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    current.type = type;
     if (io->Ioctl(fd, VIDIOC_G_FMT, &current) == 0) {
-      out << "  current format: " << FourccName(current.fmt.pix.pixelformat) << " "
-          << current.fmt.pix.width << "x" << current.fmt.pix.height << "\n";
+      const v4l2_pix_format& pix = current.fmt.pix;
+      const v4l2_pix_format_mplane& pix_mp = current.fmt.pix_mp;
+      out << "  current format: " << FourccName(mplane ? pix_mp.pixelformat : pix.pixelformat)
+          << " " << (mplane ? pix_mp.width : pix.width) << "x"
+          << (mplane ? pix_mp.height : pix.height) << "\n";
     }
     out << "  formats:\n";
-    for (uint32_t fourcc : EnumerateFourccs(io, fd)) {
+    for (uint32_t fourcc : EnumerateFourccs(io, fd, type)) {
       out << "    " << FourccName(fourcc)
           << (IsSupportedFourcc(fourcc) ? "" : " (not converted by vilma-v4l2)") << ": "
           << DescribeFrameSizes(io, fd, fourcc) << "\n";

@@ -7,8 +7,10 @@ namespace vilma::v4l2 {
 
 using fake_detail::CopyName;
 using fake_detail::FakeControl;
+using fake_detail::FromMultiplanar;
 using fake_detail::kOffsetStride;
 using fake_detail::SystemMonotonicNs;
+using fake_detail::ToMultiplanar;
 
 int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long request, void* arg,
                                int64_t now_ns) {
@@ -21,10 +23,11 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       CopyName(spec.card, cap->card, sizeof(cap->card));
       CopyName(spec.bus_info, cap->bus_info, sizeof(cap->bus_info));
       cap->version = (6u << 16) | (1u << 8);
-      cap->device_caps = capture ? (V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING)
-                                 : (V4L2_CAP_META_CAPTURE | V4L2_CAP_STREAMING);
-      cap->capabilities = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_META_CAPTURE | V4L2_CAP_STREAMING |
-                          V4L2_CAP_DEVICE_CAPS;
+      const uint32_t video =
+          spec.multiplanar ? V4L2_CAP_VIDEO_CAPTURE_MPLANE : V4L2_CAP_VIDEO_CAPTURE;
+      cap->device_caps =
+          capture ? (video | V4L2_CAP_STREAMING) : (V4L2_CAP_META_CAPTURE | V4L2_CAP_STREAMING);
+      cap->capabilities = video | V4L2_CAP_META_CAPTURE | V4L2_CAP_STREAMING | V4L2_CAP_DEVICE_CAPS;
       return 0;
     }
     case VIDIOC_QUERYCTRL: {
@@ -89,11 +92,15 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       break;
   }
   if (!capture) return -ENOTTY;  // the metadata node: none of the video capture ioctls
+  // The one buffer type this camera speaks (a multi-planar-only device refuses the other).
+  const uint32_t type =
+      spec.multiplanar ? V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE : V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  const bool mplane = spec.multiplanar;
 
   switch (request) {
     case VIDIOC_ENUM_FMT: {
       auto* d = static_cast<v4l2_fmtdesc*>(arg);
-      if (d->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || d->index >= spec.formats.size()) return -EINVAL;
+      if (d->type != type || d->index >= spec.formats.size()) return -EINVAL;
       const FakeFormat& f = spec.formats[d->index];
       d->pixelformat = f.fourcc;
       d->flags = f.fourcc == V4L2_PIX_FMT_MJPEG ? V4L2_FMT_FLAG_COMPRESSED : 0;
@@ -129,15 +136,25 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
     case VIDIOC_S_FMT:
     case VIDIOC_TRY_FMT: {
       auto* f = static_cast<v4l2_format*>(arg);
-      if (f->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
+      if (f->type != type) return -EINVAL;
       if (request == VIDIOC_G_FMT) {
-        f->fmt.pix = format;
+        if (mplane) {
+          f->fmt.pix_mp = ToMultiplanar(format);
+        } else {
+          f->fmt.pix = format;
+        }
         return 0;
       }
       if (request == VIDIOC_S_FMT && !buffers.empty()) return -EBUSY;
-      Adjust(&f->fmt.pix);
+      v4l2_pix_format pix = mplane ? FromMultiplanar(f->fmt.pix_mp) : f->fmt.pix;
+      Adjust(&pix);
+      if (mplane) {
+        f->fmt.pix_mp = ToMultiplanar(pix);
+      } else {
+        f->fmt.pix = pix;
+      }
       if (request == VIDIOC_S_FMT) {
-        format = f->fmt.pix;
+        format = pix;
         // The frame interval is kept if the new format offers it, else the first one is used.
         const FakeFormat* ff = FindFormat(format.pixelformat);
         const bool kept =
@@ -153,7 +170,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
     case VIDIOC_G_PARM:
     case VIDIOC_S_PARM: {
       auto* p = static_cast<v4l2_streamparm*>(arg);
-      if (p->type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
+      if (p->type != type) return -EINVAL;
       if (request == VIDIOC_S_PARM) {
         if (streaming) return -EBUSY;
         const v4l2_fract wanted = p->parm.capture.timeperframe;
@@ -176,7 +193,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
     }
     case VIDIOC_REQBUFS: {
       auto* r = static_cast<v4l2_requestbuffers*>(arg);
-      if (r->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || r->memory != V4L2_MEMORY_MMAP) return -EINVAL;
+      if (r->type != type || r->memory != V4L2_MEMORY_MMAP) return -EINVAL;
       if (owner_fd >= 0 && owner_fd != fd) return -EBUSY;
       if (streaming) return -EBUSY;
       for (const Buffer& b : buffers) {
@@ -196,7 +213,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
         Buffer& b = buffers[i];
         b.memory.assign(format.sizeimage, 0);
         b.info.index = i;
-        b.info.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+        b.info.type = type;
         b.info.memory = V4L2_MEMORY_MMAP;
         b.info.length = format.sizeimage;
         b.info.m.offset = static_cast<uint32_t>(i * kOffsetStride);
@@ -209,8 +226,24 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
     case VIDIOC_QBUF:
     case VIDIOC_DQBUF: {
       auto* b = static_cast<v4l2_buffer*>(arg);
-      if (b->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || b->memory != V4L2_MEMORY_MMAP) return -EINVAL;
+      if (b->type != type || b->memory != V4L2_MEMORY_MMAP) return -EINVAL;
+      // Multi-planar: the application passes its plane array (m.planes, length entries).
+      v4l2_plane* planes = mplane ? b->m.planes : nullptr;
+      if (mplane && (planes == nullptr || b->length < 1)) return -EINVAL;
       if (owner_fd != fd) return -EBUSY;
+      // The buffer's description in the caller's layout.
+      auto copy_out = [&](const v4l2_buffer& info) {
+        *b = info;
+        if (mplane) {
+          std::memset(&planes[0], 0, sizeof(planes[0]));
+          planes[0].bytesused = info.bytesused;
+          planes[0].length = info.length;
+          planes[0].m.mem_offset = info.m.offset;
+          b->m.planes = planes;
+          b->length = 1;
+          b->bytesused = 0;
+        }
+      };
       if (request == VIDIOC_DQBUF) {
         if (!streaming) return -EINVAL;
         Produce(now_ns);
@@ -220,13 +253,13 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
         done.pop_front();
         Buffer& buffer = buffers[static_cast<std::size_t>(index)];
         buffer.done = false;
-        *b = buffer.info;
+        copy_out(buffer.info);
         return 0;
       }
       if (b->index >= buffers.size()) return -EINVAL;
       Buffer& buffer = buffers[b->index];
       if (request == VIDIOC_QUERYBUF) {
-        *b = buffer.info;
+        copy_out(buffer.info);
         b->flags = (buffer.mappings > 0 ? V4L2_BUF_FLAG_MAPPED : 0) |
                    (buffer.queued ? V4L2_BUF_FLAG_QUEUED : 0) |
                    (buffer.done ? V4L2_BUF_FLAG_DONE : 0);
@@ -239,7 +272,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       return 0;
     }
     case VIDIOC_STREAMON: {
-      if (*static_cast<int*>(arg) != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
+      if (*static_cast<uint32_t*>(arg) != type) return -EINVAL;
       if (buffers.empty() || owner_fd != fd) return -EINVAL;
       if (streaming) return 0;
       WarmJpegCache();
@@ -249,7 +282,7 @@ int FakeV4l2Io::State::DoIoctl(int fd, const OpenFile& file, unsigned long reque
       return 0;
     }
     case VIDIOC_STREAMOFF: {
-      if (*static_cast<int*>(arg) != V4L2_BUF_TYPE_VIDEO_CAPTURE) return -EINVAL;
+      if (*static_cast<uint32_t*>(arg) != type) return -EINVAL;
       if (owner_fd != fd) return -EBUSY;
       streaming = false;
       incoming.clear();

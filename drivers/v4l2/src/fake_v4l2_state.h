@@ -47,6 +47,29 @@ FakeControl MakeControl(uint32_t id, uint32_t type, const char* name, int32_t mi
 // JPEG without its DHT segments (what UVC cameras send; decoders use the Annex K tables).
 std::vector<uint8_t> StripHuffmanTables(const std::vector<uint8_t>& jpeg);
 
+// v4l2_pix_format <-> the one-plane v4l2_pix_format_mplane (the multi-planar API).
+inline v4l2_pix_format_mplane ToMultiplanar(const v4l2_pix_format& pix) {
+  v4l2_pix_format_mplane mp{};
+  mp.width = pix.width;
+  mp.height = pix.height;
+  mp.pixelformat = pix.pixelformat;
+  mp.field = pix.field;
+  mp.colorspace = pix.colorspace;
+  mp.num_planes = 1;
+  mp.plane_fmt[0].bytesperline = pix.bytesperline;
+  mp.plane_fmt[0].sizeimage = pix.sizeimage;
+  return mp;
+}
+inline v4l2_pix_format FromMultiplanar(const v4l2_pix_format_mplane& mp) {
+  v4l2_pix_format pix{};
+  pix.width = mp.width;
+  pix.height = mp.height;
+  pix.pixelformat = mp.pixelformat;
+  pix.field = mp.field;
+  pix.bytesperline = mp.plane_fmt[0].bytesperline;
+  return pix;
+}
+
 }  // namespace fake_detail
 
 struct FakeV4l2Io::State {

@@ -34,12 +34,12 @@ std::string FourccList(const std::vector<uint32_t>& fourccs) {
 
 }  // namespace
 
-std::vector<uint32_t> EnumerateFourccs(V4l2Io* io, int fd) {
+std::vector<uint32_t> EnumerateFourccs(V4l2Io* io, int fd, uint32_t buffer_type) {
   std::vector<uint32_t> fourccs;
   for (uint32_t index = 0; index < 256; ++index) {
     v4l2_fmtdesc desc{};
     desc.index = index;
-    desc.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    desc.type = buffer_type;
     if (io->Ioctl(fd, VIDIOC_ENUM_FMT, &desc) != 0) break;
     fourccs.push_back(desc.pixelformat);
   }
@@ -96,7 +96,8 @@ std::string DescribeFrameRates(V4l2Io* io, int fd, uint32_t fourcc, int width, i
 std::string NegotiateFormat(V4l2Io* io, int fd, const FormatRequest& request,
                             NegotiatedFormat* result) {
   *result = NegotiatedFormat{};
-  const std::vector<uint32_t> offered = EnumerateFourccs(io, fd);
+  const bool mplane = request.buffer_type == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
+  const std::vector<uint32_t> offered = EnumerateFourccs(io, fd, request.buffer_type);
   uint32_t chosen = 0;
   for (uint32_t wanted : request.fourccs) {
     if (IsSupportedFourcc(wanted) && std::count(offered.begin(), offered.end(), wanted) > 0) {
@@ -109,35 +110,58 @@ std::string NegotiateFormat(V4l2Io* io, int fd, const FormatRequest& request,
            FourccList(request.fourccs) + " (vilma-v4l2 converts GREY, Y16, YUYV, MJPG)";
   }
 
+  // The single-planar and the multi-planar format hold the same fields for one plane.
   v4l2_format format{};
-  format.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  format.type = request.buffer_type;
   int result_code = io->Ioctl(fd, VIDIOC_G_FMT, &format);
   if (result_code != 0) return IoctlError("VIDIOC_G_FMT", result_code);
+  // (pix_mp is packed: its fields are read and written by value, not through references.)
   if (request.width > 0 && request.height > 0) {
-    format.fmt.pix.width = static_cast<uint32_t>(request.width);
-    format.fmt.pix.height = static_cast<uint32_t>(request.height);
+    if (mplane) {
+      format.fmt.pix_mp.width = static_cast<uint32_t>(request.width);
+      format.fmt.pix_mp.height = static_cast<uint32_t>(request.height);
+    } else {
+      format.fmt.pix.width = static_cast<uint32_t>(request.width);
+      format.fmt.pix.height = static_cast<uint32_t>(request.height);
+    }
   }
-  const int wanted_width = static_cast<int>(format.fmt.pix.width);
-  const int wanted_height = static_cast<int>(format.fmt.pix.height);
-  format.fmt.pix.pixelformat = chosen;
-  format.fmt.pix.field = V4L2_FIELD_NONE;
-  format.fmt.pix.bytesperline = 0;  // let the driver choose (it may pad rows)
+  const int wanted_width =
+      static_cast<int>(mplane ? format.fmt.pix_mp.width : format.fmt.pix.width);
+  const int wanted_height =
+      static_cast<int>(mplane ? format.fmt.pix_mp.height : format.fmt.pix.height);
+  if (mplane) {
+    format.fmt.pix_mp.pixelformat = chosen;
+    format.fmt.pix_mp.field = V4L2_FIELD_NONE;
+    format.fmt.pix_mp.num_planes = 1;
+    format.fmt.pix_mp.plane_fmt[0].bytesperline = 0;  // let the driver choose
+  } else {
+    format.fmt.pix.pixelformat = chosen;
+    format.fmt.pix.field = V4L2_FIELD_NONE;
+    format.fmt.pix.bytesperline = 0;  // let the driver choose (it may pad rows)
+  }
   result_code = io->Ioctl(fd, VIDIOC_S_FMT, &format);
   if (result_code != 0) return IoctlError("VIDIOC_S_FMT", result_code);
-  const v4l2_pix_format& pix = format.fmt.pix;
-  if (pix.pixelformat != chosen) {
+  const uint32_t set_fourcc = mplane ? format.fmt.pix_mp.pixelformat : format.fmt.pix.pixelformat;
+  const uint32_t field = mplane ? format.fmt.pix_mp.field : format.fmt.pix.field;
+  if (set_fourcc != chosen) {
     return "VIDIOC_S_FMT: asked for " + FourccName(chosen) + ", the device set " +
-           FourccName(pix.pixelformat);
+           FourccName(set_fourcc);
   }
-  if (pix.field != V4L2_FIELD_NONE && pix.field != V4L2_FIELD_ANY) {
-    return "the device delivers interlaced fields (field " + std::to_string(pix.field) +
+  if (field != V4L2_FIELD_NONE && field != V4L2_FIELD_ANY) {
+    return "the device delivers interlaced fields (field " + std::to_string(field) +
            "); vilma-v4l2 needs progressive frames";
   }
+  if (mplane && format.fmt.pix_mp.num_planes != 1) {
+    return "the device set " + FourccName(chosen) + " in " +
+           std::to_string(format.fmt.pix_mp.num_planes) + " planes; vilma-v4l2 needs one";
+  }
   result->fourcc = chosen;
-  result->width = static_cast<int>(pix.width);
-  result->height = static_cast<int>(pix.height);
-  result->bytes_per_line = chosen == V4L2_PIX_FMT_MJPEG ? 0 : static_cast<int>(pix.bytesperline);
-  result->size_image = pix.sizeimage;
+  result->width = static_cast<int>(mplane ? format.fmt.pix_mp.width : format.fmt.pix.width);
+  result->height = static_cast<int>(mplane ? format.fmt.pix_mp.height : format.fmt.pix.height);
+  const uint32_t bytes_per_line =
+      mplane ? format.fmt.pix_mp.plane_fmt[0].bytesperline : format.fmt.pix.bytesperline;
+  result->bytes_per_line = chosen == V4L2_PIX_FMT_MJPEG ? 0 : static_cast<int>(bytes_per_line);
+  result->size_image = mplane ? format.fmt.pix_mp.plane_fmt[0].sizeimage : format.fmt.pix.sizeimage;
   if (result->width != wanted_width || result->height != wanted_height) {
     const std::string text = "asked for " + Size(wanted_width, wanted_height) +
                              ", the device set " + Size(result->width, result->height) + " (" +
@@ -148,7 +172,7 @@ std::string NegotiateFormat(V4l2Io* io, int fd, const FormatRequest& request,
   }
 
   v4l2_streamparm parm{};
-  parm.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  parm.type = request.buffer_type;
   result_code = io->Ioctl(fd, VIDIOC_G_PARM, &parm);
   const bool settable =
       result_code == 0 && (parm.parm.capture.capability & V4L2_CAP_TIMEPERFRAME) != 0;

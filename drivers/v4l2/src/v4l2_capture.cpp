@@ -114,13 +114,12 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
   }
   const uint32_t caps =
       (cap.capabilities & V4L2_CAP_DEVICE_CAPS) != 0 ? cap.device_caps : cap.capabilities;
-  if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0 && (caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) != 0) {
-    Close();
-    return "the device captures through the multi-planar API only "
-           "(V4L2_CAP_VIDEO_CAPTURE_MPLANE, e.g. rkisp1, mxc-isi), which vilma-v4l2 does not "
-           "support";
-  }
-  if ((caps & V4L2_CAP_VIDEO_CAPTURE) == 0) {
+  // Devices with the multi-planar API only (many MIPI receivers: rkisp1, mxc-isi) stream the
+  // same one-plane formats through V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE.
+  buffer_type_ = (caps & V4L2_CAP_VIDEO_CAPTURE) == 0 && (caps & V4L2_CAP_VIDEO_CAPTURE_MPLANE) != 0
+                     ? V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE
+                     : V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  if ((caps & (V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_VIDEO_CAPTURE_MPLANE)) == 0) {
     Close();
     return "not a video capture node (uvcvideo makes a metadata node beside each camera's "
            "capture node; vilma-v4l2 --list shows which is which)";
@@ -142,7 +141,9 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
         "exposure (first packet)");
   }
 
-  std::string error = NegotiateFormat(io_, fd_, options_.format, &format_);
+  FormatRequest format_request = options_.format;
+  format_request.buffer_type = buffer_type_;
+  std::string error = NegotiateFormat(io_, fd_, format_request, &format_);
   if (!error.empty()) {
     Close();
     return error;
@@ -162,7 +163,7 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
 
   v4l2_requestbuffers request{};
   request.count = static_cast<uint32_t>(options_.buffers);
-  request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  request.type = buffer_type_;
   request.memory = V4L2_MEMORY_MMAP;
   result = io_->Ioctl(fd_, VIDIOC_REQBUFS, &request);
   if (result != 0 || request.count < 2) {
@@ -172,17 +173,19 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
   }
   for (uint32_t i = 0; i < request.count; ++i) {
     v4l2_buffer buffer{};
-    buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    buffer.memory = V4L2_MEMORY_MMAP;
+    v4l2_plane planes[VIDEO_MAX_PLANES]{};
+    PrepareBuffer(&buffer, planes);
     buffer.index = i;
     result = io_->Ioctl(fd_, VIDIOC_QUERYBUF, &buffer);
     if (result != 0) {
       Close();
       return "VIDIOC_QUERYBUF failed: " + ErrnoText(result);
     }
+    const bool mplane = buffer_type_ == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
     MappedBuffer mapped;
-    mapped.length = buffer.length;
-    mapped.address = io_->Map(fd_, buffer.length, buffer.m.offset);
+    mapped.length = mplane ? planes[0].length : buffer.length;
+    mapped.address =
+        io_->Map(fd_, mapped.length, mplane ? planes[0].m.mem_offset : buffer.m.offset);
     if (mapped.address == nullptr) {
       Close();
       return "mmap of buffer " + std::to_string(i) + " failed";
@@ -194,7 +197,7 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
       return "VIDIOC_QBUF failed: " + ErrnoText(result);
     }
   }
-  int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  int type = static_cast<int>(buffer_type_);
   result = io_->Ioctl(fd_, VIDIOC_STREAMON, &type);
   if (result != 0) {
     Close();
@@ -223,19 +226,28 @@ std::string V4l2Capture::OpenDevice(const std::string& path) {
 void V4l2Capture::Close() {
   if (fd_ < 0) return;
   if (streaming_) {
-    int type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+    int type = static_cast<int>(buffer_type_);
     io_->Ioctl(fd_, VIDIOC_STREAMOFF, &type);  // fails with ENODEV after an unplug: fine
     streaming_ = false;
   }
   for (const MappedBuffer& b : buffers_) io_->Unmap(b.address, b.length);
   buffers_.clear();
   v4l2_requestbuffers request{};
-  request.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+  request.type = buffer_type_;
   request.memory = V4L2_MEMORY_MMAP;
   io_->Ioctl(fd_, VIDIOC_REQBUFS, &request);  // count 0: free the buffers
   io_->Close(fd_);
   fd_ = -1;
   node_.clear();
+}
+
+void V4l2Capture::PrepareBuffer(v4l2_buffer* buffer, v4l2_plane* planes) const {
+  buffer->type = buffer_type_;
+  buffer->memory = V4L2_MEMORY_MMAP;
+  if (buffer_type_ == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE) {
+    buffer->m.planes = planes;
+    buffer->length = VIDEO_MAX_PLANES;  // the size of the array
+  }
 }
 
 V4l2Capture::Outcome V4l2Capture::Classify() {
@@ -308,8 +320,8 @@ V4l2Capture::Outcome V4l2Capture::DrainBuffers(const FrameCallback& on_frame) {
   // always find another buffer done and never get back to the stop and time-out checks.
   for (std::size_t n = 0; n < buffers_.size(); ++n) {
     v4l2_buffer buffer{};
-    buffer.type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-    buffer.memory = V4L2_MEMORY_MMAP;
+    v4l2_plane planes[VIDEO_MAX_PLANES]{};
+    PrepareBuffer(&buffer, planes);
     int result = io_->Ioctl(fd_, VIDIOC_DQBUF, &buffer);
     if (result == -EAGAIN) return Outcome::kOk;
     if (result != 0) {
@@ -319,9 +331,15 @@ V4l2Capture::Outcome V4l2Capture::DrainBuffers(const FrameCallback& on_frame) {
     const MappedBuffer& mapped = buffers_[buffer.index];
     const int64_t buffer_ns = static_cast<int64_t>(buffer.timestamp.tv_sec) * kNsPerS +
                               static_cast<int64_t>(buffer.timestamp.tv_usec) * 1000;
-    const std::size_t used = std::min<std::size_t>(buffer.bytesused, mapped.length);
-    HandleBuffer(static_cast<const uint8_t*>(mapped.address), used, buffer.flags, buffer_ns,
-                 buffer.sequence, on_frame);
+    // Multi-planar: the plane's data may start data_offset bytes in (bytesused counts them).
+    const bool mplane = buffer_type_ == V4L2_BUF_TYPE_VIDEO_CAPTURE_MPLANE;
+    const std::size_t offset =
+        mplane ? std::min<std::size_t>(planes[0].data_offset, mapped.length) : 0;
+    const std::size_t end =
+        std::min<std::size_t>(mplane ? planes[0].bytesused : buffer.bytesused, mapped.length);
+    const std::size_t used = end > offset ? end - offset : 0;
+    HandleBuffer(static_cast<const uint8_t*>(mapped.address) + offset, used, buffer.flags,
+                 buffer_ns, buffer.sequence, on_frame);
     // Back to the kernel at once: the ring stays full.
     result = io_->Ioctl(fd_, VIDIOC_QBUF, &buffer);
     if (result != 0) return result == -ENODEV ? Outcome::kLost : Outcome::kFailed;

@@ -62,6 +62,9 @@ struct FakeCameraSpec {
   // supply (the standard tables of JPEG Annex K.3).
   bool mjpg_without_huffman_tables = true;
   int max_buffers = 32;
+  // The multi-planar API only (V4L2_CAP_VIDEO_CAPTURE_MPLANE, as many MIPI receivers): every
+  // format has one plane.
+  bool multiplanar = false;
 
   static std::vector<FakeFormat> DefaultFormats();
 };

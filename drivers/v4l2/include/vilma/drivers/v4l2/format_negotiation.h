@@ -22,6 +22,9 @@ struct FormatRequest {
   double fps = 0.0;               // [Hz]; 0 = keep the device's current rate
   bool require_size = false;      // a different size is an error (else a note)
   bool require_fps = false;       // a rate off by more than 1 % is an error (else a note)
+  // The device's buffer type: V4L2_BUF_TYPE_VIDEO_CAPTURE, or _CAPTURE_MPLANE for devices
+  // with the multi-planar API only (many MIPI receivers); the formats used have one plane.
+  uint32_t buffer_type = 1;  // V4L2_BUF_TYPE_VIDEO_CAPTURE
 };
 
 struct NegotiatedFormat {
@@ -39,8 +42,8 @@ struct NegotiatedFormat {
 std::string NegotiateFormat(V4l2Io* io, int fd, const FormatRequest& request,
                             NegotiatedFormat* result);
 
-// The pixel formats the device lists (ENUM_FMT), in its order.
-std::vector<uint32_t> EnumerateFourccs(V4l2Io* io, int fd);
+// The pixel formats the device lists (ENUM_FMT) for `buffer_type`, in its order.
+std::vector<uint32_t> EnumerateFourccs(V4l2Io* io, int fd, uint32_t buffer_type = 1);
 // "640x480, 320x240" (discrete), "16x16..1920x1080 step 8x8" (stepwise) of one format.
 std::string DescribeFrameSizes(V4l2Io* io, int fd, uint32_t fourcc);
 // "60, 30, 15 fps" (discrete) or "1..60 fps" (stepwise/continuous) at one size.

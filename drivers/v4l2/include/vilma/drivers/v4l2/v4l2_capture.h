@@ -34,6 +34,9 @@
 #include "vilma/drivers/v4l2/frame_timestamper.h"
 #include "vilma/drivers/v4l2/v4l2_io.h"
 
+struct v4l2_buffer;
+struct v4l2_plane;
+
 namespace vilma::v4l2 {
 
 // Driver-specific counter names (besides the standard ones of driver_status.h).
@@ -115,6 +118,9 @@ class V4l2Capture {
   // After a failed poll or ioctl: kLost when the device is gone (QUERYCAP fails: uvcvideo
   // first fails DQBUF with EIO, then every ioctl with ENODEV), else kFailed.
   Outcome Classify();
+  // Type and memory of a buffer struct; for the multi-planar API, `planes` (VIDEO_MAX_PLANES
+  // entries) as its plane array.
+  void PrepareBuffer(v4l2_buffer* buffer, v4l2_plane* planes) const;
   void Log(const std::string& message) const;
 
   V4l2Io* io_;
@@ -124,6 +130,7 @@ class V4l2Capture {
   FrameTimestamper timestamper_;
 
   int fd_ = -1;
+  uint32_t buffer_type_ = 1;  // V4L2_BUF_TYPE_VIDEO_CAPTURE or _MPLANE, from QUERYCAP
   bool streaming_ = false;
   std::vector<MappedBuffer> buffers_;
   NegotiatedFormat format_;
