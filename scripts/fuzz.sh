@@ -45,14 +45,15 @@ for h in "${harnesses[@]}"; do
   grep -qx "$h" <<< "$all" || { echo "fuzz.sh: unknown harness $h (one of: $(echo $all))" >&2; exit 2; }
 done
 
+mkdir -p "$work_dir"
 if [ ! -f "$build_dir/CMakeCache.txt" ]; then
   CC=clang CXX=clang++ cmake -S "$repo_dir" -B "$build_dir" -DVILMA_FUZZ=ON -DBUILD_TESTING=OFF \
-    -DCMAKE_BUILD_TYPE=RelWithDebInfo > "$build_dir.configure.log" 2>&1 ||
-    { cat "$build_dir.configure.log" >&2; exit 1; }
+    -DCMAKE_BUILD_TYPE=RelWithDebInfo > "$work_dir/configure.log" 2>&1 ||
+    { cat "$work_dir/configure.log" >&2; exit 1; }
 fi
 echo "fuzz.sh: building the harnesses in $build_dir" >&2
-cmake --build "$build_dir" -j2 --target vilma_fuzzers > "$build_dir.build.log" 2>&1 ||
-  { tail -30 "$build_dir.build.log" >&2; exit 1; }
+cmake --build "$build_dir" -j2 --target vilma_fuzzers > "$work_dir/build.log" 2>&1 ||
+  { tail -30 "$work_dir/build.log" >&2; exit 1; }
 
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:allocator_may_return_null=1}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
