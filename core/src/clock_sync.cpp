@@ -28,8 +28,11 @@ namespace {
 
 // > 0 when o -> a -> b turns counter-clockwise (b left of the ray o->a). 128-bit: differences
 // of a 10 s window in ns times offsets of seconds overflow 64 bits.
-__int128 Cross(int64_t ox, int64_t oy, int64_t ax, int64_t ay, int64_t bx, int64_t by) {
-  return static_cast<__int128>(ax - ox) * (by - oy) - static_cast<__int128>(ay - oy) * (bx - ox);
+// GCC and clang extension; `__extension__` keeps -Wpedantic quiet about it.
+__extension__ typedef __int128 Int128;
+
+Int128 Cross(int64_t ox, int64_t oy, int64_t ax, int64_t ay, int64_t bx, int64_t by) {
+  return static_cast<Int128>(ax - ox) * (by - oy) - static_cast<Int128>(ay - oy) * (bx - ox);
 }
 
 int64_t MsToNs(double ms) { return static_cast<int64_t>(std::llround(ms * 1e6)); }
