@@ -2,9 +2,10 @@
 # Fuzzing campaign over every decoder of untrusted bytes (fuzz/, docs/reliability.md): builds
 # the libFuzzer harnesses with clang + ASan + UBSan in <repo>/build-fuzz, writes each harness's
 # seed corpus (valid inputs made by vilma's own writers), runs each harness for the given time
-# or number of executions, and prints a table: executions, exec/s, corpus size, crashes,
-# timeouts (> 1 s), out-of-memory, leaks found by this run. Corpora persist in the cache folder, so campaigns
-# continue where the last one stopped. Exit status 1 when anything was found.
+# or number of executions, and prints a table: executions, exec/s, corpus size, and the
+# crashes, timeouts (> 1 s), out-of-memory and leaks this run found. Corpora persist in the
+# cache folder, so campaigns continue where the last one stopped. Exit status 1 when anything
+# was found.
 #
 # Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [HARNESS ...]
 #   --minutes N   per harness (default 1)
@@ -29,7 +30,7 @@ while [ $# -gt 0 ]; do
     --minutes) minutes=$2; shift 2 ;;
     --runs) runs=$2; shift 2 ;;
     --jobs) jobs=$2; shift 2 ;;
-    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
