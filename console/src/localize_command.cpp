@@ -30,8 +30,9 @@ namespace fs = std::filesystem;
 using localizer::LocalizationStatus;
 
 // Ground truth T_W_I at t (IMU clock): the sample at t, else linear / slerp interpolation
-// between the two samples around t when they are at most 50 ms apart (EuRoC's ground truth is
-// 200 Hz and not on the camera times; the simulator writes a sample at every frame time).
+// between the two samples around t when they are at most 51 ms apart (EuRoC's ground truth is
+// 200 Hz, or 20 Hz with stamp jitter: gaps of 50.0001 ms, and not on the camera times; the
+// simulator writes a sample at every frame time). A missing sample (100 ms) is no ground truth.
 bool GroundTruthAt(const std::vector<GroundTruthState>& gt, int64_t t, Transformation* T_W_I) {
   const auto it = std::lower_bound(
       gt.begin(), gt.end(), t, [](const GroundTruthState& g, int64_t tt) { return g.t_ns < tt; });
@@ -43,7 +44,7 @@ bool GroundTruthAt(const std::vector<GroundTruthState>& gt, int64_t t, Transform
   if (it == gt.begin()) return false;
   const GroundTruthState& a = *(it - 1);
   const GroundTruthState& b = *it;
-  constexpr int64_t kMaxGapNs = 50'000'000;
+  constexpr int64_t kMaxGapNs = 51'000'000;
   if (b.t_ns - a.t_ns > kMaxGapNs) return false;
   const double s = static_cast<double>(t - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
   *T_W_I = Transformation(a.q_W_I.slerp(s, b.q_W_I), (1.0 - s) * a.p_W_I + s * b.p_W_I);
