@@ -1,0 +1,94 @@
+#include "vilma/drivers/log_json.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <filesystem>
+#include <sstream>
+#include <unistd.h>
+#include <vilma/imu_t.hpp>
+#include <vilma/pose_t.hpp>
+#include <vilma/status_t.hpp>
+
+#include "vilma/core/error.h"
+#include "vilma/drivers/lcm_log.h"
+
+namespace vilma {
+namespace {
+
+std::string TempDir(const std::string& name) {
+  const std::string dir = std::filesystem::temp_directory_path().string() + "/vilma_" + name + "_" +
+                          std::to_string(::getpid());
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+status_t MakeStatus() {
+  status_t s;
+  s.utime = 1700000000000000;
+  s.node = "vilma-estimatord";
+  s.state = status_t::DEGRADED;
+  s.message = "LOST, \"0\" features\n";
+  s.counter_names = {"drops", "queue_input_depth_max"};
+  s.counter_values = {3, -7};
+  s.num_counters = 2;
+  s.metric_names = {"latency_total_p99_ms", "cpu_load"};
+  s.metric_values = {2.5, NAN};
+  s.num_metrics = 2;
+  return s;
+}
+
+TEST_CASE("WriteLogJson writes status_t and pose_t events as JSON lines and skips others", "[lcm]") {
+  const std::string dir = TempDir("log_json");
+  const std::string path = dir + "/run.lcmlog";
+  {
+    LcmLogWriter writer(path);
+    writer.WriteMessage("VILMA_STATUS", MakeStatus(), 5);
+    pose_t p{};
+    p.utime = 42;
+    p.seq = 7;
+    p.status = pose_t::TRACKING;
+    p.position[0] = 1.5;
+    p.orientation[0] = 1.0;
+    writer.WriteMessage("VILMA_ODOM", p, 6);
+    imu_t imu{};
+    writer.WriteMessage("VILMA_IMU_COPY", imu, 7);  // another type on a matching channel
+    writer.WriteMessage("IMU", imu, 8);             // a channel that does not match
+    // A status_t whose counter count is negative: lcm-gen's decoder throws; skipped.
+    status_t bad = MakeStatus();
+    std::vector<uint8_t> bytes(static_cast<std::size_t>(bad.getEncodedSize()));
+    bad.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+    writer.Write("VILMA_STATUS", bytes.data(), 40, 9);  // truncated: does not decode
+    writer.Close();
+  }
+  std::ostringstream out;
+  const LogJsonStats stats = WriteLogJson(path, std::regex("VILMA_.*"), out);
+  CHECK(stats.events_matched == 4);
+  CHECK(stats.status == 1);
+  CHECK(stats.poses == 1);
+  CHECK(stats.skipped == 2);
+  const std::string expected =
+      "{\"log_us\":5,\"channel\":\"VILMA_STATUS\",\"type\":\"status\",\"utime\":1700000000000000,"
+      "\"node\":\"vilma-estimatord\",\"state\":2,\"message\":\"LOST, \\\"0\\\" features\\n\","
+      "\"counters\":{\"drops\":3,\"queue_input_depth_max\":-7},"
+      "\"metrics\":{\"latency_total_p99_ms\":2.5,\"cpu_load\":null}}\n"
+      "{\"log_us\":6,\"channel\":\"VILMA_ODOM\",\"type\":\"pose\",\"utime\":42,\"seq\":7,"
+      "\"status\":2,\"position\":[1.5,0,0],\"orientation\":[1,0,0,0]}\n";
+  CHECK(out.str() == expected);
+
+  std::ostringstream only_odom;
+  CHECK(WriteLogJson(path, std::regex("VILMA_ODOM"), only_odom).poses == 1);
+  CHECK(only_odom.str().find("status\"") == std::string::npos);
+  CHECK_THROWS_AS(WriteLogJson(dir + "/absent.lcmlog", std::regex(".*"), out), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+TEST_CASE("JsonString escapes quotes, backslashes and control characters", "[lcm]") {
+  CHECK(JsonString("a\"b\\c") == "\"a\\\"b\\\\c\"");
+  CHECK(JsonString(std::string("x\x01y\x7f", 4)) == "\"x\\u0001y\\u007f\"");
+  CHECK(JsonString("\n") == "\"\\n\"");
+  CHECK(JsonString("") == "\"\"");
+}
+
+}  // namespace
+}  // namespace vilma
