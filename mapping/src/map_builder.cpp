@@ -204,10 +204,14 @@ Eigen::Quaterniond MapBuilder::IntegrateGyro(int64_t t_a, int64_t t_b,
   return q.normalized();
 }
 
+bool VertexIntervalReached(int64_t dt_ns, double vertex_rate_hz) {
+  if (vertex_rate_hz <= 0.0) return true;
+  return static_cast<double>(dt_ns) >= 0.9e9 / vertex_rate_hz;
+}
+
 bool MapBuilder::WantsFrame(int64_t t_ns) const {
   if (finished_ || (has_frame_ && t_ns <= last_frame_t_ns_)) return false;
-  if (!has_vertex_ || options_.vertex_rate_hz <= 0.0) return true;
-  return static_cast<double>(t_ns - last_vertex_t_ns_) >= 0.9e9 / options_.vertex_rate_hz;
+  return !has_vertex_ || VertexIntervalReached(t_ns - last_vertex_t_ns_, options_.vertex_rate_hz);
 }
 
 bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& images) {

@@ -190,6 +190,28 @@ TEST_CASE("map builder: the vertex rate thins the frames", "[mapping]") {
   CHECK(builder.stats().frames_rejected == 2);
 }
 
+TEST_CASE("map builder: the vertex-rate rule compares in double, at its exact threshold",
+          "[mapping]") {
+  // 10 Hz: the threshold 0.9 / 10 s = 90 000 000 ns is an integer.
+  CHECK(VertexIntervalReached(90'000'000, 10.0));
+  CHECK_FALSE(VertexIntervalReached(89'999'999, 10.0));
+  // 7 Hz: 0.9e9 / 7 = 128 571 428.57 ns. The daemon's former copy truncated the threshold to
+  // 128 571 428 ns and handed the builder a frame that WantsFrame then refused.
+  CHECK_FALSE(VertexIntervalReached(128'571'428, 7.0));
+  CHECK(VertexIntervalReached(128'571'429, 7.0));
+  // 0 Hz: every frame.
+  CHECK(VertexIntervalReached(0, 0.0));
+  // WantsFrame applies it after the first vertex.
+  const SensorRig rig = sim::MakeEurocRig(false);
+  MapBuilderOptions o;
+  o.vertex_rate_hz = 7.0;
+  MapBuilder builder(rig, o, 1);
+  CHECK(builder.WantsFrame(1'000'000'000));
+  REQUIRE(builder.AddFrame(StateAt(1'000'000'000), {}));
+  CHECK_FALSE(builder.WantsFrame(1'128'571'428));
+  CHECK(builder.WantsFrame(1'128'571'429));
+}
+
 TEST_CASE("map builder: IMU edges carry every sample exactly once", "[mapping]") {
   const SensorRig rig = sim::MakeEurocRig(false);
   const int64_t t0 = 1'000'000'000;

@@ -85,6 +85,12 @@ struct MapBuilderStats {
   std::string ToString(const std::string& indent = "  ") const;
 };
 
+// The vertex-rate rule, the one copy of it (MapBuilder::WantsFrame and the daemon's thinning
+// of frames towards its map-builder thread): a frame `dt_ns` after the previous vertex becomes
+// a vertex when dt >= 0.9 / vertex_rate_hz (10 % slack for stamp jitter), compared in double
+// as dt [ns] >= 0.9e9 / rate; every frame when vertex_rate_hz <= 0.
+bool VertexIntervalReached(int64_t dt_ns, double vertex_rate_hz);
+
 class MapBuilder {
  public:
   // `mission_seed` fixes the mission id (and through IdGenerator::ForMission every object id).
