@@ -2,6 +2,7 @@
 // tangent space of its blocks (PoseManifold for poses, Euclidean otherwise).
 #include <catch2/catch.hpp>
 
+#include <cmath>
 #include <memory>
 #include <random>
 
@@ -9,6 +10,7 @@
 #include "vilma/mapping/optimization/inertial_residual.h"
 #include "vilma/mapping/optimization/pose_manifold.h"
 #include "vilma/mapping/optimization/reprojection_residual.h"
+#include "vilma/mapping/optimization/time_offset_residual.h"
 
 namespace vilma::mapping {
 namespace {
@@ -162,6 +164,74 @@ TEST_CASE("Inertial residual is zero at states consistent with the preintegratio
   }
   const double* params[4] = {pi.data(), si.data(), pj.data(), sj.data()};
   CHECK(cost.RawResidual(params).norm() < 1e-9);
+}
+
+TEST_CASE("Time-offset reprojection Jacobians (pose, speed/bias, landmark, baseframe, extrinsics, "
+          "offset) match differences") {
+  const SensorRig rig = mapstore::testing::TestRig();
+  std::mt19937_64 rng(23);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int trial = 0; trial < 8; ++trial) {
+    const std::vector<double> T_M_I = Pose(rng, 2.0), T_G_M = Pose(rng, 2.0),
+                              T_I_C = Pose(rng, 0.1);
+    std::vector<double> speed_bias(9);
+    for (int k = 0; k < 9; ++k) speed_bias[k] = (k < 3 ? 1.5 : k < 6 ? 0.05 : 0.1) * n(rng);
+    const Eigen::Vector3d omega_m(2.0 * n(rng), 2.0 * n(rng), 2.0 * n(rng));
+    const std::vector<double> delta = {0.02 * n(rng)};
+    const Transformation T_G_C =
+        BlockToPose(T_G_M.data()) * BlockToPose(T_M_I.data()) * BlockToPose(T_I_C.data());
+    const Eigen::Vector3d p_G = T_G_C * Eigen::Vector3d(0.4 * n(rng), 0.3 * n(rng), 3.0);
+    const TimeOffsetReprojectionCostFunction cost(&rig.cameras[0].camera,
+                                                  Eigen::Vector2d(300, 200), 1.5, omega_m);
+    CheckJacobians(cost, {T_M_I, speed_bias, {p_G.x(), p_G.y(), p_G.z()}, T_G_M, T_I_C, delta},
+                   1e-5);
+  }
+}
+
+TEST_CASE("Time-offset reprojection: zero offset is the plain residual; the offset finds the "
+          "pose at the exposure time") {
+  const SensorRig rig = mapstore::testing::TestRig();
+  const Camera& camera = rig.cameras[0].camera;
+  std::vector<double> T_M_I(7), T_G_M(7), T_I_C(7);
+  PoseToBlock(Transformation(ExpSO3(Eigen::Vector3d(0.1, 0.2, -0.3)), Eigen::Vector3d(1, 0, 0)),
+              T_M_I.data());
+  PoseToBlock(Transformation(), T_G_M.data());
+  PoseToBlock(rig.cameras[0].T_I_C, T_I_C.data());
+  const Eigen::Vector3d v_M(0.8, -0.4, 0.2), omega_I(0.5, -1.2, 0.9), b_g(0.01, -0.02, 0.005);
+  std::vector<double> speed_bias = {v_M.x(), v_M.y(), v_M.z(), b_g.x(), b_g.y(), b_g.z(), 0, 0, 0};
+  const Transformation T_M_C = BlockToPose(T_M_I.data()) * rig.cameras[0].T_I_C;
+  const Eigen::Vector3d p_G = T_M_C * Eigen::Vector3d(0.3, -0.2, 2.5);
+
+  // δ = 0: the same residual as ReprojectionCostFunction.
+  const Eigen::Vector2d uv(310, 190);
+  std::vector<double> zero = {0.0};
+  double r_plain[2], r_offset[2];
+  const double* plain[4] = {T_M_I.data(), p_G.data(), T_G_M.data(), T_I_C.data()};
+  REQUIRE(ReprojectionCostFunction(&camera, uv, 1.0).Evaluate(plain, r_plain, nullptr));
+  const double* shifted[6] = {T_M_I.data(), speed_bias.data(), p_G.data(), T_G_M.data(),
+                              T_I_C.data(), zero.data()};
+  REQUIRE(TimeOffsetReprojectionCostFunction(&camera, uv, 1.0, omega_I + b_g)
+              .Evaluate(shifted, r_offset, nullptr));
+  CHECK(std::abs(r_plain[0] - r_offset[0]) < 1e-12);
+  CHECK(std::abs(r_plain[1] - r_offset[1]) < 1e-12);
+
+  // The pixel seen from the body pose 7 ms later (constant v and ω): the residual at δ = 7 ms
+  // is zero, and not at δ = 0.
+  const double dt = 0.007;
+  const Transformation T_M_I_later(
+      BlockToPose(T_M_I.data()).rotation() * ExpSO3(omega_I * dt),
+      BlockToPose(T_M_I.data()).translation() + v_M * dt);
+  Eigen::Vector2d uv_later;
+  REQUIRE(camera.Project((T_M_I_later * rig.cameras[0].T_I_C).inverse() * p_G, &uv_later) ==
+          Camera::ProjectionResult::kValid);
+  std::vector<double> later = {dt};
+  const TimeOffsetReprojectionCostFunction cost(&camera, uv_later, 1.0, omega_I + b_g);
+  const double* at_later[6] = {T_M_I.data(), speed_bias.data(), p_G.data(), T_G_M.data(),
+                               T_I_C.data(), later.data()};
+  REQUIRE(cost.Evaluate(at_later, r_offset, nullptr));
+  CHECK(std::hypot(r_offset[0], r_offset[1]) < 1e-9);
+  REQUIRE(cost.Evaluate(shifted, r_offset, nullptr));
+  CHECK(std::hypot(r_offset[0], r_offset[1]) > 1.0);
 }
 
 }  // namespace

@@ -26,6 +26,10 @@ Command<O> OptimizationFlags(Command<O> c) {
           .Flag("ba_fix_landmarks", &O::ba_fix_landmarks, "hold the landmark positions")
           .Flag("ba_fix_biases", &O::ba_fix_biases, "hold the IMU biases")
           .Flag("ba_fix_extrinsics", &O::ba_fix_extrinsics, "hold the camera extrinsics T_I_C")
+          .Flag("ba_estimate_time_offset", &O::ba_estimate_time_offset,
+                "estimate a camera-IMU time offset per camera (optvi)")
+          .Flag("ba_estimate_baseframe_tilt", &O::ba_estimate_baseframe_tilt,
+                "estimate roll/pitch of unknown baseframes (held landmarks not gravity aligned)")
           .Flag("ba_outlier_rejection", &O::ba_outlier_rejection,
                 "drop observations behind the camera or beyond the threshold between rounds")
           .Flag("ba_outlier_threshold_px", &O::ba_outlier_threshold_px,

@@ -1,7 +1,5 @@
 #include "vilma/mapping/optimization/pose_manifold.h"
 
-#include "vilma/core/trajectory_eval.h"
-
 #include <Eigen/Core>
 
 #include <cmath>
@@ -82,8 +80,8 @@ bool GaugePoseManifold::Plus(const double* x, const double* delta, double* x_plu
     // The basis holds the yaw to first order; put it back exactly: R = Rz(yaw) S (swing S
     // about a horizontal axis), so Rz(α) R has yaw + α.
     Eigen::Map<Eigen::Quaterniond> q(x_plus_delta + 3);
-    const double correction = GravityYaw(Eigen::Map<const Eigen::Quaterniond>(x + 3)) -
-                              GravityYaw(q);
+    const double correction = YawAboutZ(Eigen::Map<const Eigen::Quaterniond>(x + 3)) -
+                              YawAboutZ(q);
     q = (Eigen::Quaterniond(Eigen::AngleAxisd(correction, Eigen::Vector3d::UnitZ())) * q)
             .normalized();
   }
@@ -113,6 +111,44 @@ bool GaugePoseManifold::MinusJacobian(const double* x, double* jacobian) const {
   J.setZero();
   J.leftCols<6>() = Basis(x).transpose();
   return true;
+}
+
+bool BaseframeTiltManifold::Plus(const double* x, const double* delta,
+                                 double* x_plus_delta) const {
+  const double full[6] = {0.0, 0.0, 0.0, delta[0], delta[1], 0.0};
+  return PoseManifold().Plus(x, full, x_plus_delta);
+}
+
+bool BaseframeTiltManifold::PlusJacobian(const double* /*x*/, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 7, 2, Eigen::RowMajor>> J(jacobian);
+  J.setZero();
+  J(3, 0) = 1.0;
+  J(4, 1) = 1.0;
+  return true;
+}
+
+bool BaseframeTiltManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
+  double full[6];
+  PoseManifold().Minus(y, x, full);
+  y_minus_x[0] = full[3];
+  y_minus_x[1] = full[4];
+  return true;
+}
+
+bool BaseframeTiltManifold::MinusJacobian(const double* /*x*/, double* jacobian) const {
+  Eigen::Map<Eigen::Matrix<double, 2, 7, Eigen::RowMajor>> J(jacobian);
+  J.setZero();
+  J(0, 3) = 1.0;
+  J(1, 4) = 1.0;
+  return true;
+}
+
+double YawAboutZ(const Eigen::Quaterniond& q) {
+  const Eigen::Matrix3d R = q.normalized().toRotationMatrix();
+  const double y = R(1, 0) - R(0, 1);
+  const double x = R(0, 0) + R(1, 1);
+  if (x == 0.0 && y == 0.0) return 0.0;
+  return std::atan2(y, x);
 }
 
 void PoseToBlock(const Transformation& T, double* block) {

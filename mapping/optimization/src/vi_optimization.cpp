@@ -17,6 +17,7 @@
 #include "vilma/mapping/optimization/inertial_residual.h"
 #include "vilma/mapping/optimization/pose_manifold.h"
 #include "vilma/mapping/optimization/reprojection_residual.h"
+#include "vilma/mapping/optimization/time_offset_residual.h"
 #include "vi_problem_util.h"
 
 namespace vilma::mapping {
@@ -57,7 +58,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     max_cameras = std::max(max_cameras, map->mission(m).rig.cameras.size());
   }
   std::vector<double> arena;
-  arena.reserve(map->num_vertices() * 16 + map->mission_ids().size() * 7 * (1 + max_cameras) +
+  arena.reserve(map->num_vertices() * 16 + map->mission_ids().size() * 8 * (1 + max_cameras) +
                 map->num_landmarks() * 3);
   auto allocate = [&arena](std::size_t n) {
     const std::size_t offset = arena.size();
@@ -70,6 +71,8 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   std::unordered_map<MissionId, double*, IdHash> baseframes;
   std::map<std::pair<MissionId, uint32_t>, double*> extrinsics;
   std::unordered_map<LandmarkId, double*, IdHash> landmarks;
+  std::map<std::pair<MissionId, uint32_t>, double*> time_offsets;  // [s], from 0
+  std::unordered_map<VertexId, Eigen::Vector3d, IdHash> omega_m_I;  // gyroscope at the vertex
   auto pose_of = [&](const VertexId& id) -> double* {
     auto it = poses.find(id);
     if (it == poses.end()) {
@@ -107,6 +110,16 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     if (it == extrinsics.end()) {
       it = extrinsics.emplace(key, allocate(7)).first;
       PoseToBlock(map->mission(id).rig.cameras.at(camera).T_I_C, it->second);
+    }
+    return it->second;
+  };
+
+  auto time_offset_of = [&](const MissionId& id, uint32_t camera) -> double* {
+    auto key = std::make_pair(id, camera);
+    auto it = time_offsets.find(key);
+    if (it == time_offsets.end()) {
+      it = time_offsets.emplace(key, allocate(1)).first;
+      it->second[0] = 0.0;
     }
     return it->second;
   };
@@ -151,6 +164,9 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
         preintegration_from.push_back(e.from);
         preintegration_to.push_back(e.to);
         preintegration_gravity.push_back(rig.imu.gravity_magnitude);
+        // The samples cover both vertex times exactly (interpolated there).
+        omega_m_I.emplace(e.from, e.imu_samples.front().omega_I);
+        omega_m_I.emplace(e.to, e.imu_samples.back().omega_I);
         problem.AddResidualBlock(
             new InertialCostFunction(preintegrations.back().get(), rig.imu.gravity_magnitude),
             nullptr, pose_i, speed_bias_i, pose_j, speed_bias_j);
@@ -188,9 +204,21 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
                          block,
                          baseframe_of(v.mission_id),
                          extrinsics_of(v.mission_id, o.camera)};
-          ob.residual = problem.AddResidualBlock(
-              new ReprojectionCostFunction(ob.camera, ob.uv, options.keypoint_sigma_px),
-              loss.get(), ob.pose_M_I, ob.p_G, ob.pose_G_M, ob.pose_I_C);
+          const auto omega = omega_m_I.find(o.vertex_id);
+          if (options.ba_estimate_time_offset && omega != omega_m_I.end()) {
+            ob.speed_bias = speed_bias_of(o.vertex_id);
+            ob.time_offset = time_offset_of(v.mission_id, o.camera);
+            ob.omega_m_I = omega->second;
+            ob.residual = problem.AddResidualBlock(
+                new TimeOffsetReprojectionCostFunction(ob.camera, ob.uv,
+                                                       options.keypoint_sigma_px, ob.omega_m_I),
+                loss.get(), ob.pose_M_I, ob.speed_bias, ob.p_G, ob.pose_G_M, ob.pose_I_C,
+                ob.time_offset);
+          } else {
+            ob.residual = problem.AddResidualBlock(
+                new ReprojectionCostFunction(ob.camera, ob.uv, options.keypoint_sigma_px),
+                loss.get(), ob.pose_M_I, ob.p_G, ob.pose_G_M, ob.pose_I_C);
+          }
           landmark_observations[lid].push_back(observations.size());
           observations.push_back(ob);
           auto it = mission_index.find(v.mission_id);
@@ -228,9 +256,14 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
       problem.SetManifold(sb, &biases_fixed);
     }
   }
+  BaseframeTiltManifold tilt;
   for (auto& [id, pose] : baseframes) {
-    (void)id;
-    problem.SetParameterBlockConstant(pose);
+    if (options.ba_estimate_baseframe_tilt && mission_index.count(id) != 0 &&
+        !map->mission(id).baseframe_known) {
+      problem.SetManifold(pose, &tilt);
+    } else {
+      problem.SetParameterBlockConstant(pose);
+    }
   }
   for (auto& [key, pose] : extrinsics) {
     (void)key;
@@ -244,6 +277,8 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     (void)id;
     if (options.ba_fix_landmarks) problem.SetParameterBlockConstant(p);
   }
+  // Held landmarks fix G (and, seen by the missions, their frames): no vertex is held then.
+  const bool landmarks_fix_gauge = options.ba_fix_landmarks && !landmarks.empty();
   // Gauge per cluster: the anchor mission (the first with a known baseframe, else the first).
   std::map<int, std::vector<int>> members;
   for (std::size_t i = 0; i < selected.size(); ++i) {
@@ -252,6 +287,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   summary.clusters = members.size();
   for (const auto& [root, list] : members) {
     (void)root;
+    if (landmarks_fix_gauge) break;
     int anchor = list.front();
     for (int i : list) {
       if (map->mission(selected[i]).baseframe_known) {
@@ -462,11 +498,30 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     v.gyro_bias = Eigen::Vector3d(sb[3], sb[4], sb[5]);
     v.accel_bias = Eigen::Vector3d(sb[6], sb[7], sb[8]);
   }
-  if (!options.ba_fix_extrinsics) {
-    for (const auto& [key, pose] : extrinsics) {
-      if (mission_index.count(key.first) == 0) continue;
-      map->mission(key.first).rig.cameras[key.second].T_I_C = BlockToPose(pose);
-    }
+  for (const auto& [key, pose] : extrinsics) {
+    if (mission_index.count(key.first) == 0) continue;
+    if (options.ba_fix_extrinsics && time_offsets.count(key) == 0) continue;
+    CameraConfig& camera = map->mission(key.first).rig.cameras[key.second];
+    CameraCalibrationChange c;
+    c.mission = key.first;
+    c.camera = key.second;
+    c.T_I_C_before = camera.T_I_C;
+    c.T_I_C_after = BlockToPose(pose);
+    c.time_offset_before_s = c.time_offset_after_s = 1e-9 * static_cast<double>(camera.time_offset_ns);
+    const auto offset = time_offsets.find(key);
+    if (offset != time_offsets.end()) c.time_offset_after_s += offset->second[0];
+    summary.cameras.push_back(c);
+    if (!options.ba_fix_extrinsics) camera.T_I_C = c.T_I_C_after;
+  }
+  // The time offset is reported, not written to the rig: the vertex times were made with the
+  // rig's offset, and a rig changed under them would be applied twice by the next estimate.
+  for (const auto& [id, pose] : baseframes) {
+    if (mission_index.count(id) == 0 || map->mission(id).baseframe_known) continue;
+    const Transformation T_G_M = BlockToPose(pose);
+    summary.baseframe_tilt_change_deg =
+        std::max(summary.baseframe_tilt_change_deg,
+                 AngleBetween(T_G_M.rotation(), map->mission(id).T_G_M.rotation()) * 180 / M_PI);
+    map->mission(id).T_G_M = T_G_M;
   }
   for (const auto& [id, p] : landmarks) {
     mapstore::Landmark& l = map->landmark(id);

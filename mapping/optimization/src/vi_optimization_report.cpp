@@ -1,4 +1,5 @@
 // ViOptimizationOptions::Validate and the summary's reports (vi_optimization.h).
+#include <cmath>
 #include <sstream>
 
 #include "vilma/mapping/optimization/vi_optimization.h"
@@ -23,6 +24,12 @@ std::string ViOptimizationOptions::Validate() const {
       ba_linear_solver != "sparse_normal_cholesky" && ba_linear_solver != "dense_schur") {
     return "ba_linear_solver: expected sparse_schur, iterative_schur, sparse_normal_cholesky or "
            "dense_schur";
+  }
+  if (ba_estimate_time_offset && !(inertial && visual)) {
+    return "ba_estimate_time_offset: needs inertial and visual terms (optvi)";
+  }
+  if (ba_estimate_baseframe_tilt && !(inertial && ba_fix_landmarks)) {
+    return "ba_estimate_baseframe_tilt: needs inertial terms and ba_fix_landmarks";
   }
   std::string problem = preintegration.Validate();
   if (!problem.empty()) return "preintegration." + problem;
@@ -55,6 +62,17 @@ std::string ViOptimizationSummary::FullReport() const {
     out << "  mission " << c.mission.Hex().substr(0, 8) << ": " << c.vertices
         << " vertices moved mean " << c.mean_shift_m << " m (max " << c.max_shift_m << "), "
         << c.mean_rotation_deg << " deg (max " << c.max_rotation_deg << ")\n";
+  }
+  for (const CameraCalibrationChange& c : cameras) {
+    const Transformation d = c.T_I_C_before.inverse() * c.T_I_C_after;
+    out << "  mission " << c.mission.Hex().substr(0, 8) << " camera " << c.camera
+        << ": T_I_C moved " << 1000.0 * d.translation().norm() << " mm, "
+        << AngleBetween(c.T_I_C_before.rotation(), c.T_I_C_after.rotation()) * 180.0 / M_PI
+        << " deg; time offset " << 1000.0 * c.time_offset_before_s << " -> "
+        << 1000.0 * c.time_offset_after_s << " ms\n";
+  }
+  if (baseframe_tilt_change_deg > 0.0) {
+    out << "  baseframe tilt changed by " << baseframe_tilt_change_deg << " deg\n";
   }
   return out.str();
 }

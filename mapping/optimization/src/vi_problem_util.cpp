@@ -4,6 +4,7 @@
 #include <stdexcept>
 
 #include "vilma/mapping/optimization/pose_manifold.h"
+#include "vilma/mapping/optimization/time_offset_residual.h"
 
 namespace vilma::mapping::vi_problem {
 
@@ -14,7 +15,12 @@ double SecondsSince(std::chrono::steady_clock::time_point start) {
 double PixelError(const Observation& o) {
   const Transformation T_G_C =
       BlockToPose(o.pose_G_M) * BlockToPose(o.pose_M_I) * BlockToPose(o.pose_I_C);
-  const Eigen::Vector3d p_C = T_G_C.inverse() * Eigen::Map<const Eigen::Vector3d>(o.p_G);
+  const Eigen::Vector3d p_C =
+      o.time_offset == nullptr
+          ? Eigen::Vector3d(T_G_C.inverse() * Eigen::Map<const Eigen::Vector3d>(o.p_G))
+          : TimeOffsetReprojectionCostFunction::PointInCamera(o.pose_M_I, o.speed_bias, o.p_G,
+                                                              o.pose_G_M, o.pose_I_C,
+                                                              o.time_offset[0], o.omega_m_I);
   Eigen::Vector2d uv;
   const Camera::ProjectionResult r = o.camera->Project(p_C, &uv);
   if (r == Camera::ProjectionResult::kBehindCamera || r == Camera::ProjectionResult::kNotFinite ||

@@ -28,6 +28,11 @@ struct Observation {
   double* pose_G_M;
   double* pose_I_C;
   ceres::ResidualBlockId residual = nullptr;
+  // With a time offset (time_offset_residual.h): the vertex's speed/bias block, the offset
+  // block and the gyroscope's reading at the vertex time; nullptr: no offset.
+  double* speed_bias = nullptr;
+  double* time_offset = nullptr;
+  Eigen::Vector3d omega_m_I = Eigen::Vector3d::Zero();
 };
 
 // Pixel error of an observation at the current blocks; negative when behind the camera.

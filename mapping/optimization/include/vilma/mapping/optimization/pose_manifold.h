@@ -57,6 +57,27 @@ class GaugePoseManifold : public ceres::Manifold {
   Eigen::Vector3d fixed_direction_;
 };
 
+// A baseframe T_G_M whose position and yaw are held and whose tilt moves: the body-frame
+// perturbation q ⊗ Exp(δθ) with δθ = (δθx, δθy, 0) in M, i.e. the direction of gravity (M's z)
+// seen in G. For maps whose frame G is not gravity aligned but fixed by held landmarks (a
+// calibration target's frame): the IMU sees gravity along M's z, the landmarks fix G, and
+// only this tilt ties the two (docs/optimization.md "Gauge"). Tangent size 2, lifted into the
+// 7 columns as PoseManifold's.
+class BaseframeTiltManifold : public ceres::Manifold {
+ public:
+  int AmbientSize() const override { return 7; }
+  int TangentSize() const override { return 2; }
+  bool Plus(const double* x, const double* delta, double* x_plus_delta) const override;
+  bool PlusJacobian(const double* x, double* jacobian) const override;
+  bool Minus(const double* y, const double* x, double* y_minus_x) const override;
+  bool MinusJacobian(const double* x, double* jacobian) const override;
+};
+
+// The yaw ψ of R = Rz(ψ) S, S a rotation about a horizontal axis (the swing-twist split about
+// z): ψ = atan2(R10 − R01, R00 + R11), exact for any swing (S00 + S11 = 1 + cos β and
+// S10 − S01 = 0); 0 when undetermined (β = 180°). The gauge's held yaw.
+double YawAboutZ(const Eigen::Quaterniond& q);
+
 // Pose block <-> Transformation.
 void PoseToBlock(const Transformation& T, double* block);
 Transformation BlockToPose(const double* block);

@@ -28,6 +28,7 @@
 #include <string>
 #include <vector>
 
+#include "vilma/core/geometry.h"
 #include "vilma/core/progress.h"
 #include "vilma/mapping/map_builder_options.h"
 #include "vilma/mapping/optimization/imu_preintegration.h"
@@ -45,9 +46,19 @@ struct ViOptimizationOptions {
   std::string ba_robust_loss = "huber";  // huber, cauchy or none
   double ba_robust_loss_scale_px = 3.0;  // where the loss turns robust [px]
   double keypoint_sigma_px = 1.0;        // keypoint noise: whitens the reprojection [px]
+  // Landmark positions held. They then fix the frame G themselves, so no vertex is held for
+  // the gauge (a calibration target's corners: docs/optimization.md "Target calibration").
   bool ba_fix_landmarks = false;
   bool ba_fix_biases = false;      // biases held (velocities stay free)
   bool ba_fix_extrinsics = true;   // camera extrinsics T_I_C held
+  // A camera-IMU time offset per mission camera (time_offset_residual.h): how far the image's
+  // exposure lies after its vertex time [s], from 0. Needs inertial and visual terms (the
+  // pose is carried over the offset by the vertex's velocity and the gyroscope's rate).
+  bool ba_estimate_time_offset = false;
+  // The tilt (roll, pitch) of the baseframe T_G_M of missions whose baseframe is not known:
+  // for a map whose G is fixed by held landmarks that are not gravity aligned (a calibration
+  // target). Needs ba_fix_landmarks and inertial terms.
+  bool ba_estimate_baseframe_tilt = false;
   bool ba_outlier_rejection = true;
   double ba_outlier_threshold_px = 10.0;  // drop observations with a larger error [px]
   // Solver threads. 1 (default): bit-identical results run after run (the deterministic
@@ -73,6 +84,15 @@ struct MissionChange {
   double mean_rotation_deg = 0.0, max_rotation_deg = 0.0;
 };
 
+// A mission camera's calibration before and after (when extrinsics or time offsets were free).
+struct CameraCalibrationChange {
+  mapstore::MissionId mission;
+  uint32_t camera = 0;
+  Transformation T_I_C_before, T_I_C_after;
+  // The rig's time_offset_ns plus the estimated offset [s] (equal without the estimate).
+  double time_offset_before_s = 0.0, time_offset_after_s = 0.0;
+};
+
 struct ViOptimizationSummary {
   std::string command;  // "optvi" or "optv"
   std::size_t vertices = 0, landmarks = 0;
@@ -86,6 +106,8 @@ struct ViOptimizationSummary {
   std::size_t reintegrations = 0;
   std::string termination;  // Ceres' last termination type and message
   std::vector<MissionChange> missions;
+  std::vector<CameraCalibrationChange> cameras;  // with free extrinsics or time offsets
+  double baseframe_tilt_change_deg = 0.0;        // largest, with ba_estimate_baseframe_tilt
   std::size_t good_landmarks_before = 0, good_landmarks_after = 0;
   std::string BriefReport() const;
   std::string FullReport() const;
