@@ -93,19 +93,8 @@ std::string LocalizationOptions::Validate() const {
     return "localization.max_rate_hz: expected 0 < rate <= 100 [Hz]";
   }
   if (min_inliers < 3) return "localization.min_inliers: expected >= 3";
-  if (!(std::isfinite(max_jump_m) && max_jump_m > 0.0)) return "localization.max_jump_m: expected > 0 [m]";
-  if (!(std::isfinite(max_jump_deg) && max_jump_deg > 0.0 && max_jump_deg <= 180.0)) {
-    return "localization.max_jump_deg: expected 0 < deg <= 180";
-  }
-  if (!(std::isfinite(max_gravity_misalignment_deg) && max_gravity_misalignment_deg > 0.0 &&
-        max_gravity_misalignment_deg <= 90.0)) {
-    return "localization.max_gravity_misalignment_deg: expected 0 < deg <= 90";
-  }
-  if (min_consistent_results < 1) return "localization.min_consistent_results: expected >= 1";
-  if (!(std::isfinite(forgetting_factor) && forgetting_factor > 0.0 && forgetting_factor <= 1.0)) {
-    return "localization.forgetting_factor: expected 0 < f <= 1";
-  }
-  if (max_consecutive_gated < 1) return "localization.max_consecutive_gated: expected >= 1";
+  const std::string global_frame_error = global_frame.Validate();
+  if (!global_frame_error.empty()) return "localization." + global_frame_error;
   const std::string features_error = features.Validate();
   if (!features_error.empty()) return "localization.features." + features_error;
   return "";
@@ -235,12 +224,12 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   }
   o.localization.max_rate_hz = loc.Get<double>("max_rate_hz");
   o.localization.min_inliers = loc.Get<int>("min_inliers");
-  o.localization.max_jump_m = loc.Get<double>("max_jump_m");
-  o.localization.max_jump_deg = loc.Get<double>("max_jump_deg");
-  o.localization.max_gravity_misalignment_deg = loc.Get<double>("max_gravity_misalignment_deg");
-  o.localization.min_consistent_results = loc.Get<int>("min_consistent_results");
-  o.localization.forgetting_factor = loc.Get<double>("forgetting_factor");
-  o.localization.max_consecutive_gated = loc.Get<int>("max_consecutive_gated");
+  o.localization.global_frame.max_jump_m = loc.Get<double>("max_jump_m");
+  o.localization.global_frame.max_jump_deg = loc.Get<double>("max_jump_deg");
+  o.localization.global_frame.max_gravity_misalignment_deg = loc.Get<double>("max_gravity_misalignment_deg");
+  o.localization.global_frame.min_consistent_results = loc.Get<int>("min_consistent_results");
+  o.localization.global_frame.forgetting_factor = loc.Get<double>("forgetting_factor");
+  o.localization.global_frame.max_consecutive_gated = loc.Get<int>("max_consecutive_gated");
   loc.CheckNoUnknownKeys();
 
   root.CheckNoUnknownKeys();
@@ -327,12 +316,12 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "  localizer: " << Quote(o.localization.localizer_file) << "\n"
       << "  max_rate_hz: " << o.localization.max_rate_hz << "\n"
       << "  min_inliers: " << o.localization.min_inliers << "\n"
-      << "  max_jump_m: " << o.localization.max_jump_m << "\n"
-      << "  max_jump_deg: " << o.localization.max_jump_deg << "\n"
-      << "  max_gravity_misalignment_deg: " << o.localization.max_gravity_misalignment_deg << "\n"
-      << "  min_consistent_results: " << o.localization.min_consistent_results << "\n"
-      << "  forgetting_factor: " << o.localization.forgetting_factor << "\n"
-      << "  max_consecutive_gated: " << o.localization.max_consecutive_gated << "\n"
+      << "  max_jump_m: " << o.localization.global_frame.max_jump_m << "\n"
+      << "  max_jump_deg: " << o.localization.global_frame.max_jump_deg << "\n"
+      << "  max_gravity_misalignment_deg: " << o.localization.global_frame.max_gravity_misalignment_deg << "\n"
+      << "  min_consistent_results: " << o.localization.global_frame.min_consistent_results << "\n"
+      << "  forgetting_factor: " << o.localization.global_frame.forgetting_factor << "\n"
+      << "  max_consecutive_gated: " << o.localization.global_frame.max_consecutive_gated << "\n"
       << "  # query keyframe features"
       << (o.localization.features_file.empty() ? " (built-in profile)" : " from " + o.localization.features_file) << "\n"
       << "  features:\n"

@@ -29,7 +29,6 @@
 #include "vilma/core/sensor_sync.h"
 #include "vilma/core/time.h"
 #include "vilma/daemon/daemon_counters.h"
-#include "vilma/daemon/global_frame_estimator.h"
 #include "vilma/daemon/image_pool.h"
 #include "vilma/daemon/latency_window.h"
 #include "vilma/daemon/systemd_notify.h"
@@ -37,6 +36,7 @@
 #include "vilma/drivers/lcm_log.h"
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/estimator/filter_state.h"
+#include "vilma/estimator/global_frame_estimator.h"
 #include "vilma/estimator/vio_filter.h"
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
@@ -969,7 +969,7 @@ void EstimatorDaemon::Impl::FilterLoop() {
     map_break_pending = !push_map_break();
   };
   // ---- LOC mode: T_G_M from the localizer's results (docs/daemon.md "Localization").
-  GlobalFrameEstimator global_frame(options.localization);
+  estimator::GlobalFrameEstimator global_frame(options.localization.global_frame);
   uint64_t epoch = 0;  // M frame generation: results of an older M are stale
   bool loc_has_query = false;
   int64_t loc_last_query_ns = 0;
@@ -1006,16 +1006,16 @@ void EstimatorDaemon::Impl::FilterLoop() {
     }
     LocDecision d = LocDecision::kAccepted;
     switch (global_frame.Update(res.T_G_I, res.covariance_I, res.T_M_I)) {
-      case GlobalFrameUpdate::kAccepted: Count(kLocTgmUpdates); break;
-      case GlobalFrameUpdate::kRejectedGravity:
+      case estimator::GlobalFrameUpdate::kAccepted: Count(kLocTgmUpdates); break;
+      case estimator::GlobalFrameUpdate::kRejectedGravity:
         Count(kLocRejectedGravity);
         d = LocDecision::kRejectedGravity;
         break;
-      case GlobalFrameUpdate::kRejectedJump:
+      case estimator::GlobalFrameUpdate::kRejectedJump:
         Count(kLocRejectedJump);
         d = LocDecision::kRejectedJump;
         break;
-      case GlobalFrameUpdate::kReinitialized:
+      case estimator::GlobalFrameUpdate::kReinitialized:
         // Gated, but the gated results in a row outvoted the estimate: it restarts from this
         // one, which is thus accepted (loc_rejected_jump counts only results left unused).
         Count(kLocTgmResets);

@@ -158,7 +158,7 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
   o.localization.enabled = true;
   o.localization.map = "/maps/room.vlocmap";
   o.localization.max_rate_hz = 5.0;
-  o.localization.max_jump_deg = 7.5;
+  o.localization.global_frame.max_jump_deg = 7.5;
   const DaemonOptions back = ParseDaemonOptions(DaemonOptionsToYaml(o), "effective.yaml");
   CHECK(DaemonOptionsToYaml(back) == DaemonOptionsToYaml(o));
   CHECK(back.localization.map == "/maps/room.vlocmap");

@@ -10,6 +10,7 @@
 #include "vilma/core/sensor_sync.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/estimator/filter_options.h"
+#include "vilma/estimator/global_frame_estimator.h"
 #include "vilma/localizer/feature_options.h"
 #include "vilma/mapping/map_builder_options.h"
 
@@ -107,18 +108,9 @@ struct LocalizationOptions {
   localizer::KeyframeFeatureOptions features = localizer::LocalizationQueryFeatureOptions();
   double max_rate_hz = 2.0;  // localization queries at most this often [Hz]
   int min_inliers = 30;      // results with fewer RANSAC inliers are not used (loc_rejected_inliers)
-  // Gating of T_G_M measurements against the current estimate (after initialization).
-  double max_jump_m = 0.5;      // position [m]
-  double max_jump_deg = 5.0;    // yaw [deg]
-  // Both G and M are gravity aligned: T_G_M must be a yaw rotation. A measurement whose
-  // roll/pitch exceeds this is rejected [deg].
-  double max_gravity_misalignment_deg = 3.0;
-  int min_consistent_results = 2;  // consistent results before VILMA_POSE is published
-  // Information kept per update of the T_G_M estimate (1 = plain inverse-covariance average,
-  // < 1 lets the estimate follow the VIO drift) [fraction].
-  double forgetting_factor = 0.8;
-  // Consecutive gated (jumping) results after which the estimate is dropped and re-initialized.
-  int max_consecutive_gated = 5;
+  // T_G_M fusion (estimator/global_frame_estimator.h); its keys are in this section directly
+  // (localization.max_jump_m, ...). VILMA_POSE is published once min_consistent_results agree.
+  estimator::GlobalFrameOptions global_frame;
   std::string Validate() const;
 };
 

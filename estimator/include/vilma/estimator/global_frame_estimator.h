@@ -3,16 +3,33 @@
 // odometry frame M to the map frame G. Both frames are gravity aligned, so T_G_M has 4 degrees
 // of freedom (x, y, z, yaw); measurements with roll/pitch are rejected, measurements that jump
 // from the estimate are gated, and the accepted ones are fused by inverse-covariance weighting
-// with a forgetting factor (an information filter on a random-walk state). Filter thread only.
+// with a forgetting factor (an information filter on a random-walk state). Used by
+// vilma-estimatord's filter thread (LOC mode); not thread-safe.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <string>
 
 #include "vilma/core/geometry.h"
-#include "vilma/daemon/daemon_options.h"
+namespace vilma::estimator {
 
-namespace vilma::daemon {
+// Gating and fusion of T_G_M measurements (the daemon's localization.* keys of the same names).
+struct GlobalFrameOptions {
+  // Gating against the current estimate (after initialization).
+  double max_jump_m = 0.5;    // position [m]
+  double max_jump_deg = 5.0;  // yaw [deg]
+  // Both G and M are gravity aligned: T_G_M must be a yaw rotation. A measurement whose
+  // roll/pitch exceeds this is rejected [deg].
+  double max_gravity_misalignment_deg = 3.0;
+  int min_consistent_results = 2;  // consistent results before the estimate is initialized
+  // Information kept per update of the estimate (1 = plain inverse-covariance average, < 1 lets
+  // the estimate follow the VIO drift) [fraction].
+  double forgetting_factor = 0.8;
+  // Consecutive gated (jumping) results after which the estimate is dropped and re-initialized.
+  int max_consecutive_gated = 5;
+  std::string Validate() const;  // "" or "field: expectation"
+};
 
 enum class GlobalFrameUpdate : uint8_t {
   kAccepted,          // fused into the estimate (or started a new candidate)
@@ -23,7 +40,7 @@ enum class GlobalFrameUpdate : uint8_t {
 
 class GlobalFrameEstimator {
  public:
-  explicit GlobalFrameEstimator(const LocalizationOptions& options) : options_(options) {}
+  explicit GlobalFrameEstimator(const GlobalFrameOptions& options) : options_(options) {}
 
   // T_G_I: the localization result, covariance_I of xi in T_G_I Exp(xi), xi = [rho; phi]
   // [m^2, rad^2]; T_M_I: the filter's pose at that same frame.
@@ -45,7 +62,7 @@ class GlobalFrameEstimator {
                         const Transformation& T_M_I, Eigen::Vector4d* z, Eigen::Matrix4d* R);
 
  private:
-  LocalizationOptions options_;
+  GlobalFrameOptions options_;
   bool has_estimate_ = false;
   int consistent_ = 0;       // measurements fused since the last (re)start
   int consecutive_gated_ = 0;
@@ -53,4 +70,4 @@ class GlobalFrameEstimator {
   Eigen::Matrix4d info_ = Eigen::Matrix4d::Zero();     // information matrix
 };
 
-}  // namespace vilma::daemon
+}  // namespace vilma::estimator

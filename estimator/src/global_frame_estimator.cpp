@@ -1,11 +1,11 @@
-#include "vilma/daemon/global_frame_estimator.h"
+#include "vilma/estimator/global_frame_estimator.h"
 
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <Eigen/Geometry>
 #include <cmath>
 
-namespace vilma::daemon {
+namespace vilma::estimator {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
@@ -17,6 +17,23 @@ constexpr double kMinSigmaYaw = 0.2 * kDegToRad;
 double WrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
 }  // namespace
+
+std::string GlobalFrameOptions::Validate() const {
+  if (!(std::isfinite(max_jump_m) && max_jump_m > 0.0)) return "max_jump_m: expected > 0 [m]";
+  if (!(std::isfinite(max_jump_deg) && max_jump_deg > 0.0 && max_jump_deg <= 180.0)) {
+    return "max_jump_deg: expected 0 < deg <= 180";
+  }
+  if (!(std::isfinite(max_gravity_misalignment_deg) && max_gravity_misalignment_deg > 0.0 &&
+        max_gravity_misalignment_deg <= 90.0)) {
+    return "max_gravity_misalignment_deg: expected 0 < deg <= 90";
+  }
+  if (min_consistent_results < 1) return "min_consistent_results: expected >= 1";
+  if (!(std::isfinite(forgetting_factor) && forgetting_factor > 0.0 && forgetting_factor <= 1.0)) {
+    return "forgetting_factor: expected 0 < f <= 1";
+  }
+  if (max_consecutive_gated < 1) return "max_consecutive_gated: expected >= 1";
+  return "";
+}
 
 double GlobalFrameEstimator::Measure(const Transformation& T_G_I, const Matrix6d& covariance_I,
                                      const Transformation& T_M_I, Eigen::Vector4d* z,
@@ -121,4 +138,4 @@ Eigen::Matrix4d GlobalFrameEstimator::covariance() const {
   return info_.llt().solve(Eigen::Matrix4d::Identity());
 }
 
-}  // namespace vilma::daemon
+}  // namespace vilma::estimator

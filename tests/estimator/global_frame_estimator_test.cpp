@@ -1,11 +1,11 @@
-#include "vilma/daemon/global_frame_estimator.h"
+#include "vilma/estimator/global_frame_estimator.h"
 
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <random>
 
-namespace vilma::daemon {
+namespace vilma::estimator {
 namespace {
 
 constexpr double kDeg = M_PI / 180.0;
@@ -21,8 +21,8 @@ Matrix6d Cov(double sigma_p, double sigma_r) {
 }
 
 TEST_CASE("T_G_M: fuses consistent results, initializes after min_consistent_results",
-          "[daemon][localization]") {
-  LocalizationOptions o;
+          "[estimator][localization]") {
+  GlobalFrameOptions o;
   GlobalFrameEstimator e(o);
   const Transformation T_G_M = YawPose(0.7, {1.0, -2.0, 0.3});
   std::mt19937 rng(3);
@@ -46,8 +46,8 @@ TEST_CASE("T_G_M: fuses consistent results, initializes after min_consistent_res
 }
 
 TEST_CASE("T_G_M: gravity-misaligned and jumping results are rejected, a lasting jump re-initializes",
-          "[daemon][localization]") {
-  LocalizationOptions o;
+          "[estimator][localization]") {
+  GlobalFrameOptions o;
   GlobalFrameEstimator e(o);
   const Transformation T_M_I = YawPose(0.2, {0.5, 0.0, 1.0});
   const Transformation T_G_M = YawPose(-1.0, {3.0, 1.0, 0.0});
@@ -80,8 +80,8 @@ TEST_CASE("T_G_M: gravity-misaligned and jumping results are rejected, a lasting
   CHECK_FALSE(e.initialized());
 }
 
-TEST_CASE("T_G_M: the forgetting factor follows a drifting M", "[daemon][localization]") {
-  LocalizationOptions o;
+TEST_CASE("T_G_M: the forgetting factor follows a drifting M", "[estimator][localization]") {
+  GlobalFrameOptions o;
   GlobalFrameEstimator e(o);
   const Transformation T_M_I = YawPose(0.0, {0, 0, 1});
   const Matrix6d c = Cov(0.02, 0.3 * kDeg);
@@ -95,4 +95,4 @@ TEST_CASE("T_G_M: the forgetting factor follows a drifting M", "[daemon][localiz
 }
 
 }  // namespace
-}  // namespace vilma::daemon
+}  // namespace vilma::estimator
