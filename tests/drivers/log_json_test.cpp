@@ -78,16 +78,9 @@ TEST_CASE("WriteLogJson writes status_t and pose_t events as JSON lines and skip
 
   std::ostringstream only_odom;
   CHECK(WriteLogJson(path, std::regex("VILMA_ODOM"), only_odom).poses == 1);
-  CHECK(only_odom.str().find("status\"") == std::string::npos);
+  CHECK(only_odom.str().find("\"type\":\"status\"") == std::string::npos);
   CHECK_THROWS_AS(WriteLogJson(dir + "/absent.lcmlog", std::regex(".*"), out), InputError);
   std::filesystem::remove_all(dir);
-}
-
-TEST_CASE("JsonString escapes quotes, backslashes and control characters", "[lcm]") {
-  CHECK(JsonString("a\"b\\c") == "\"a\\\"b\\\\c\"");
-  CHECK(JsonString(std::string("x\x01y\x7f", 4)) == "\"x\\u0001y\\u007f\"");
-  CHECK(JsonString("\n") == "\"\\n\"");
-  CHECK(JsonString("") == "\"\"");
 }
 
 }  // namespace

@@ -1,11 +1,11 @@
 #include "vilma/drivers/log_json.h"
 
 #include <cmath>
-#include <cstdio>
 #include <exception>
 #include <vilma/pose_t.hpp>
 #include <vilma/status_t.hpp>
 
+#include "vilma/core/json.h"
 #include "vilma/drivers/lcm_log.h"
 
 namespace vilma {
@@ -51,26 +51,6 @@ void WritePose(const pose_t& msg, std::ostream& out) {
 }
 
 }  // namespace
-
-std::string JsonString(const std::string& text) {
-  std::string out = "\"";
-  for (const char ch : text) {
-    const unsigned char c = static_cast<unsigned char>(ch);
-    if (c == '"' || c == '\\') {
-      out += '\\';
-      out += ch;
-    } else if (c == '\n') {
-      out += "\\n";
-    } else if (c < 0x20 || c == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof(buf), "\\u%04x", c);
-      out += buf;
-    } else {
-      out += ch;  // UTF-8 passes through
-    }
-  }
-  return out + "\"";
-}
 
 LogJsonStats WriteLogJson(const std::string& path, const std::regex& channel_regex,
                           std::ostream& out) {

@@ -45,6 +45,10 @@ std::string ReplayOptions::Validate() const {
   if (!(start_s >= 0.0) || !std::isfinite(start_s)) return "--start must be >= 0 seconds";
   if (end_s >= 0.0 && end_s < start_s) return "--end must not be before --start";
   if (prefetch < 0 || prefetch > 256) return "--prefetch must be in [0, 256]";
+  for (const ReplayFault& fault : faults) {
+    const std::string error = fault.Validate();
+    if (!error.empty()) return "--fault '" + fault.ToString() + "': " + error;
+  }
   std::vector<std::string> names = {ImuChannel()};
   for (size_t i = 0; i < std::max<size_t>(camera_channels.size(), 2); ++i) {
     names.push_back(CameraChannel(static_cast<int>(i)));
@@ -84,6 +88,14 @@ Options:
   --channels A,B,..   channels of cam0, cam1, ... in one option
   --channel-suffix S  appended to every channel name (e.g. _REPLAY)
   --prefetch N        images decoded ahead on a worker thread (default 4; 0 = inline)
+  --fault SPEC        inject a sensor fault (repeatable; docs/reliability.md), START and
+                      DURATION in seconds from the dataset's first stamp:
+                        camera-drop:START:DURATION       no images (a silent camera)
+                        imu-gap:START:DURATION           no IMU samples
+                        time-jump:START:DURATION:OFFSET  stamps + OFFSET s in the window,
+                                                         then back (a jump and its return)
+                        duplicate:START:DURATION         every message sent twice
+                        camera-half-rate:START:DURATION  every second image dropped
   --quiet             print errors only
   --help              this text
 
@@ -164,6 +176,14 @@ std::string ParseReplayCommandLine(int argc, const char* const* argv, ReplayOpti
       error = number(&n);
       if (error.empty() && (n != std::floor(n))) error = "--prefetch needs an integer";
       options->prefetch = static_cast<int>(n);
+    } else if (arg == "--fault") {
+      ReplayFault fault;
+      if (!next(&text)) {
+        error = arg + " needs a value";
+      } else {
+        error = ParseReplayFault(text, &fault);
+        if (error.empty()) options->faults.push_back(fault);
+      }
     } else if (arg == "--lcm-url") {
       if (!next(&options->lcm_url)) error = arg + " needs a value";
     } else if (arg == "--to-log") {
@@ -392,9 +412,13 @@ ReplaySummary RunReplay(const AslDataset& dataset, const ReplayOptions& options,
       break;
     }
     const size_t slot = static_cast<size_t>(e.stream + 1);
+    const ReplayFaultAction fault =
+        ReplayFaultActionFor(options.faults, t_first, e.stream, e.t_ns, seq[slot]);
     int64_t utime = 0;
     if (e.stream < 0) {
-      const imu_t msg = ImuToMessage(imu[e.index], seq[0]);
+      ImuSample sample = imu[e.index];
+      sample.t_ns += fault.stamp_offset_ns;
+      const imu_t msg = ImuToMessage(sample, seq[0]);
       utime = msg.utime;
       buffer.resize(static_cast<size_t>(msg.getEncodedSize()));
       msg.encode(buffer.data(), 0, static_cast<int>(buffer.size()));
@@ -406,8 +430,8 @@ ReplaySummary RunReplay(const AslDataset& dataset, const ReplayOptions& options,
                                        : AslDataset::LoadImage(image_paths[next_image]);
       image_wait += SteadyClock::now() - wait_start;
       ++next_image;
-      const std::string error =
-          MakeImageMessage(image, image_t::GRAY8, e.t_ns, seq[slot], e.stream, &image_msg);
+      const std::string error = MakeImageMessage(image, image_t::GRAY8, e.t_ns + fault.stamp_offset_ns,
+                                                 seq[slot], e.stream, &image_msg);
       if (!error.empty()) {
         throw InputError(FormatInputError(cameras[e.stream].frames[e.index].image_path, "",
                                           "an 8-bit image (" + error + ")"));
@@ -442,14 +466,19 @@ ReplaySummary RunReplay(const AslDataset& dataset, const ReplayOptions& options,
     }
 
     const std::string& channel = summary.channels[slot].channel;
-    if (!sink->Send(channel, buffer.data(), static_cast<int>(buffer.size()), utime)) {
-      ++summary.send_failures;
+    if (fault.copies == 0) ++summary.fault_dropped;
+    if (fault.copies > 1) summary.fault_duplicated += fault.copies - 1;
+    if (fault.copies > 0 && fault.stamp_offset_ns != 0) ++summary.fault_shifted;
+    for (int copy = 0; copy < fault.copies; ++copy) {
+      if (!sink->Send(channel, buffer.data(), static_cast<int>(buffer.size()), utime)) {
+        ++summary.send_failures;
+      }
+      ++summary.channels[slot].messages;
+      summary.channels[slot].bytes += static_cast<int64_t>(buffer.size());
+      ++summary.messages;
+      summary.bytes += static_cast<int64_t>(buffer.size());
     }
     ++seq[slot];
-    ++summary.channels[slot].messages;
-    summary.channels[slot].bytes += static_cast<int64_t>(buffer.size());
-    ++summary.messages;
-    summary.bytes += static_cast<int64_t>(buffer.size());
   }
   summary.wall_s = Seconds(SteadyClock::now() - anchor);
   summary.max_lateness_ms = max_lateness_s * 1e3;
@@ -481,6 +510,13 @@ std::string ReplaySummary::Report() const {
                 image_wait_ms, static_cast<long long>(send_failures),
                 interrupted ? ", INTERRUPTED" : "");
   out << line;
+  if (fault_dropped + fault_duplicated + fault_shifted > 0) {
+    std::snprintf(line, sizeof(line),
+                  "faults: %lld messages dropped, %lld duplicates sent, %lld stamps shifted\n",
+                  static_cast<long long>(fault_dropped), static_cast<long long>(fault_duplicated),
+                  static_cast<long long>(fault_shifted));
+    out << line;
+  }
   return out.str();
 }
 

@@ -30,7 +30,4 @@ struct LogJsonStats {
 LogJsonStats WriteLogJson(const std::string& path, const std::regex& channel_regex,
                           std::ostream& out);
 
-// `text` as a JSON string literal (quotes, backslash and control characters escaped).
-std::string JsonString(const std::string& text);
-
 }  // namespace vilma

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "vilma/core/asl_dataset.h"
+#include "vilma/drivers/replay_faults.h"
 
 namespace vilma {
 
@@ -40,6 +41,8 @@ struct ReplayOptions {
   std::string channel_suffix;  // appended to every channel name
   int prefetch = 4;  // images decoded ahead on a worker thread; 0 = decode inline
   bool verbose = true;  // print warnings and the summary
+  // Injected sensor faults (--fault, replay_faults.h); empty = a faithful replay.
+  std::vector<ReplayFault> faults;
 
   // Empty if valid, else what is wrong.
   std::string Validate() const;
@@ -89,6 +92,9 @@ struct ReplaySummary {
   int64_t messages = 0;
   int64_t bytes = 0;
   int64_t send_failures = 0;
+  int64_t fault_dropped = 0;     // messages not sent because of --fault
+  int64_t fault_duplicated = 0;  // extra copies sent because of --fault
+  int64_t fault_shifted = 0;     // messages sent with a shifted stamp (--fault time-jump)
   double wall_s = 0.0;           // steady-clock duration of the replay [s]
   double data_s = 0.0;           // time span of the replayed stamps [s]
   double max_lateness_ms = 0.0;  // worst delay of a send after its deadline [ms] (paced modes)
