@@ -15,9 +15,9 @@
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
 #include "vilma/core/timing.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 #include "vilma/estimator/given_state_io.h"
-#include "vilma/estimator/vio_filter.h"
+#include "vilma/estimator/vio_pipeline.h"
 #include "vilma/mapping/map_builder.h"
 #include "vilma/mapstore/id.h"
 #include "vilma/mapstore/consistency.h"
@@ -145,7 +145,28 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     if (o.print_config && !o.save_map_dir.empty()) {
       out << "# map builder\n" << mapping::MapBuilderOptionsToYaml(map_options);
     }
-    estimator::VioFilter filter(rig, o.camera, options);
+    estimator::VioPipelineOptions pipeline_options;
+    pipeline_options.vio_camera = o.camera;
+    pipeline_options.filter = options;
+    // Synchronized like vilma-estimatord (core's SensorSynchronizer, its default options): the
+    // VIO camera, the stereo camera, and with --save-map every camera of the dataset.
+    std::vector<int> cameras{o.camera};
+    if (options.stereo.enabled) cameras.push_back(options.stereo.camera);
+    if (!o.save_map_dir.empty()) {
+      for (std::size_t c = 0; c < rig.cameras.size() && c < dataset.cameras().size(); ++c) {
+        cameras.push_back(static_cast<int>(c));
+      }
+    }
+    std::sort(cameras.begin(), cameras.end());
+    cameras.erase(std::unique(cameras.begin(), cameras.end()), cameras.end());
+    for (int c : cameras) {
+      if (c >= static_cast<int>(dataset.cameras().size())) {
+        throw InputError(FormatInputError(o.dataset, "cam" + std::to_string(c),
+                                          "a camera folder (stereo.camera)"));
+      }
+    }
+    pipeline_options.cameras = cameras;
+    estimator::VioPipeline pipeline(rig, pipeline_options);
     const auto& frames = dataset.cameras()[static_cast<std::size_t>(o.camera)].frames;
     const auto& imu = dataset.imu();
     const int64_t offset_ns = rig.cameras[static_cast<std::size_t>(o.camera)].time_offset_ns;
@@ -154,18 +175,16 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
       estimator::GivenStateSource source;
       const estimator::GivenState given = estimator::LoadGivenState(
           o.initial_state_path, frames.front().t_ns + offset_ns, &source);
-      filter.StartFrom(given);
+      pipeline.stage().StartFrom(given);
       start_note = "given: " + o.initial_state_path + " (velocity " +
                    (source.velocity_from_file ? "and biases from the file" : "from differences") +
                    (source.biases_from_file ? "" : ", biases 0") + ")";
     }
 
-    // Map building (--save-map): one builder, fed the same IMU samples as the filter and the
-    // filter's state at every frame with a pose. Images of the other cameras are the frames
-    // with the same camera time stamp (synchronized rig); a camera without one at that time
-    // gets no features in that vertex.
+    // Map building (--save-map): one builder, fed the IMU samples the filter got and the
+    // filter's state at every frame with a pose, with the images of the synchronized frame
+    // (a camera missing from the frame gets no features in that vertex).
     std::unique_ptr<mapping::MapBuilder> builder;
-    std::vector<std::unordered_map<int64_t, std::string>> camera_frames;
     if (!o.save_map_dir.empty()) {
       if (dataset.cameras().size() < rig.cameras.size() && map_options.cameras.empty()) {
         // Only the cameras the dataset has.
@@ -178,76 +197,78 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
           // From the IMU file: deterministic per dataset, distinct across sessions.
           mapstore::SeedFromFileContent(o.dataset + "/mav0/imu0/data.csv"),
           std::filesystem::path(o.dataset).lexically_normal().filename().string());
-      camera_frames.resize(rig.cameras.size());
-      for (std::size_t c = 0; c < rig.cameras.size() && c < dataset.cameras().size(); ++c) {
-        for (const CameraFrame& f : dataset.cameras()[c].frames) {
-          camera_frames[c].emplace(f.t_ns, f.image_path);
-        }
-      }
     }
-    std::vector<cv::Mat> map_images;
     double map_ms = 0.0;
+
+    // Arrival order as vilma-replay writes a log: all streams merged by stamp, the IMU before
+    // the cameras at equal stamps, cameras by index (stable).
+    struct Event {
+      int64_t t_ns;
+      int stream;  // -1 IMU, else camera
+      std::size_t index;
+    };
+    std::vector<Event> events;
+    events.reserve(imu.size() + frames.size() * cameras.size());
+    for (std::size_t i = 0; i < imu.size(); ++i) events.push_back({imu[i].t_ns, -1, i});
+    for (int c : cameras) {
+      const auto& cf = dataset.cameras()[static_cast<std::size_t>(c)].frames;
+      for (std::size_t i = 0; i < cf.size(); ++i) events.push_back({cf[i].t_ns, c, i});
+    }
+    std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
+      return a.t_ns != b.t_ns ? a.t_ns < b.t_ns : a.stream < b.stream;
+    });
 
     Trajectory trajectory;
     std::vector<double> frame_ms;
     frame_ms.reserve(frames.size());
     std::ostringstream timing;
     timing << "t_ns,ms,features,updated,rejected,added\n";
-    std::size_t next_imu = 0;
     int resets = 0;
-    const auto wall_start = std::chrono::steady_clock::now();
-    for (const CameraFrame& frame : frames) {
-      const cv::Mat image = AslDataset::LoadImage(frame.image_path);
-      // Feed every IMU sample up to the frame's IMU time (plus one beyond for interpolation).
-      const int64_t t_imu = frame.t_ns + offset_ns;
-      while (next_imu < imu.size() && imu[next_imu].t_ns <= t_imu) {
-        if (builder) builder->AddImu(imu[next_imu]);
-        filter.AddImu(imu[next_imu++]);
+    estimator::VioFrameOutput r;
+    auto consume = [&](estimator::VioFrameOutput& output) {
+      if (builder) {
+        for (const ImuSample& s : output.imu) builder->AddImu(s);
       }
-      if (next_imu < imu.size()) {
-        if (builder) builder->AddImu(imu[next_imu]);
-        filter.AddImu(imu[next_imu++]);
-      }
-      const auto t0 = std::chrono::steady_clock::now();
-      const estimator::FrameResult r = filter.AddImage(frame.t_ns, image);
-      const double ms =
-          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-              .count();
-      if (r.reset) {
+      const estimator::FrameResult& f = output.filter;
+      if (f.reset) {
         ++resets;
-        err << "vilma vio: reset at t = " << r.t_ns << " ns: " << r.reset_reason << "\n";
+        err << "vilma vio: reset at t = " << f.t_ns << " ns: " << f.reset_reason << "\n";
       }
-      if (!r.pose_valid) continue;
-      if (builder && !builder->WantsFrame(r.t_ns)) {
-        mapping::FrameState state;  // counted as skipped by the vertex rate; no images needed
-        state.t_ns = r.t_ns;
-        state.T_M_I = r.T_M_I;
-        builder->AddFrame(state, {});
-      } else if (builder) {
-        const auto tm = std::chrono::steady_clock::now();
-        map_images.assign(rig.cameras.size(), cv::Mat());
-        for (std::size_t c = 0; c < rig.cameras.size(); ++c) {
-          if (static_cast<int>(c) == o.camera) {
-            map_images[c] = image;
-            continue;
-          }
-          const auto it = camera_frames[c].find(frame.t_ns);
-          if (it != camera_frames[c].end()) map_images[c] = AslDataset::LoadImage(it->second);
-        }
+      if (!output.pose.tracking()) return;
+      const estimator::VioPose& pose = output.pose;
+      if (builder) {
         mapping::FrameState state;
-        state.t_ns = r.t_ns;
-        state.T_M_I = r.T_M_I;
-        state.v_M = filter.state().v_W;
-        state.gyro_bias = filter.state().b_g;
-        state.accel_bias = filter.state().b_a;
-        builder->AddFrame(state, map_images);
-        map_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tm)
-                      .count();
+        state.t_ns = pose.t_ns;
+        state.T_M_I = pose.T_M_I;
+        if (!builder->WantsFrame(pose.t_ns)) {
+          builder->AddFrame(state, {});  // counted as skipped by the vertex rate; no images
+        } else {
+          const auto tm = std::chrono::steady_clock::now();
+          state.v_M = pose.v_M;
+          state.gyro_bias = pose.gyro_bias;
+          state.accel_bias = pose.accel_bias;
+          builder->AddFrame(state, output.images);
+          map_ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - tm)
+                        .count();
+        }
       }
-      frame_ms.push_back(ms);
-      timing << r.t_ns << "," << ms << "," << r.num_features << "," << r.num_updated << ","
-             << r.num_rejected << "," << r.num_added << "\n";
-      if (trajectory.empty() || r.t_ns > trajectory.t_ns.back()) trajectory.Add(r.t_ns, r.T_M_I);
+      frame_ms.push_back(output.filter_ms);
+      timing << pose.t_ns << "," << output.filter_ms << "," << f.num_features << ","
+             << f.num_updated << "," << f.num_rejected << "," << f.num_added << "\n";
+      if (trajectory.empty() || pose.t_ns > trajectory.t_ns.back()) {
+        trajectory.Add(pose.t_ns, pose.T_M_I);
+      }
+    };
+    const auto wall_start = std::chrono::steady_clock::now();
+    for (const Event& e : events) {
+      if (e.stream < 0) {
+        pipeline.AddImu(imu[e.index]);
+      } else {
+        const CameraFrame& frame =
+            dataset.cameras()[static_cast<std::size_t>(e.stream)].frames[e.index];
+        pipeline.AddImage(e.stream, frame.t_ns, AslDataset::LoadImage(frame.image_path));
+      }
+      while (pipeline.NextOutput(&r)) consume(r);
     }
     const double wall_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - wall_start).count();
@@ -259,7 +280,9 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     const double duration_s =
         frames.size() > 1 ? static_cast<double>(frames.back().t_ns - frames.front().t_ns) * 1e-9
                           : 0.0;
+    const estimator::VioFilter& filter = pipeline.stage().filter();
     const estimator::FilterStats& s = filter.stats();
+    const SensorSyncCounters& sc = pipeline.sync_counters();
     out << std::fixed << std::setprecision(2) << "vilma vio: " << o.dataset << "\n"
         << "  rig              " << rig_source << "\n"
         << "  frames           " << frames.size() << " (" << trajectory.size()
@@ -288,10 +311,21 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
         << s.dynamic_init.solver_failed << " solver, " << s.dynamic_init.large_residual
         << " residuals, " << s.dynamic_init.gravity_mismatch << " |g|, "
         << s.dynamic_init.uncertain << " uncertain\n"
-        << "  resets           " << resets << "\n";
+        << "  resets           " << resets << "\n"
+        << "  sync             " << sc.frames_released << " frames released ("
+        << sc.frames_incomplete << " incomplete), dropped: " << sc.frames_dropped_no_imu
+        << " no IMU, " << sc.frames_dropped_overflow << " overflow; " << sc.images_duplicate
+        << " duplicate, " << sc.images_out_of_order << " out-of-order, " << sc.images_late
+        << " late images\n";
+    if (options.stereo.enabled) {
+      out << "  stereo           camera " << options.stereo.camera << ", "
+          << pipeline.stage().counters().frames_without_stereo << " frames without it\n";
+    }
     if (builder) {
-      // The rest of the IMU stream completes the last edge.
-      while (next_imu < imu.size()) builder->AddImu(imu[next_imu++]);
+      // The rest of the IMU stream (still in the synchronizer) completes the last edge.
+      for (const ImuSample& sample : imu) {
+        if (sample.t_ns > pipeline.last_forwarded_imu_ns()) builder->AddImu(sample);
+      }
       const mapstore::VIMap& map = builder->Finish();
       const mapstore::MapSaveSummary saved = mapstore::SaveMap(map, o.save_map_dir);
       const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);

@@ -87,6 +87,16 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("health", "max_speed", o.health.max_speed);
   v("health", "max_position_sigma", o.health.max_position_sigma);
   v("health", "max_frames_without_features", o.health.max_frames_without_features);
+  v("stereo", "enabled", o.stereo.enabled);
+  v("stereo", "camera", o.stereo.camera);
+  v("stereo", "update", o.stereo.update);
+  v("stereo", "init_depth", o.stereo.init_depth);
+  v("stereo", "max_inverse_depth", o.stereo.max_inverse_depth);
+  v("stereo", "search_step_px", o.stereo.search_step_px);
+  v("stereo", "max_match_error", o.stereo.max_match_error);
+  v("stereo", "max_epipolar_px", o.stereo.max_epipolar_px);
+  v("stereo", "match_pixel_sigma", o.stereo.match_pixel_sigma);
+  v("stereo", "min_inverse_depth_sigma", o.stereo.min_inverse_depth_sigma);
 }
 
 }  // namespace
@@ -196,6 +206,17 @@ std::string HealthOptions::Validate() const {
   return "";
 }
 
+std::string StereoOptions::Validate() const {
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("camera", camera, 0));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_inverse_depth", max_inverse_depth));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("search_step_px", search_step_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_match_error", max_match_error));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("max_epipolar_px", max_epipolar_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("match_pixel_sigma", match_pixel_sigma));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("min_inverse_depth_sigma", min_inverse_depth_sigma));
+  return "";
+}
+
 std::string FilterOptions::Validate() const {
   std::string e;
   if (!(e = init.Validate()).empty()) return "init." + e;
@@ -203,6 +224,7 @@ std::string FilterOptions::Validate() const {
   if (!(e = update.Validate()).empty()) return "update." + e;
   if (!(e = features.Validate()).empty()) return "features." + e;
   if (!(e = health.Validate()).empty()) return "health." + e;
+  if (!(e = stereo.Validate()).empty()) return "stereo." + e;
   if (estimate_extrinsics && (init.sigma_extrinsic_rotation <= 0.0 ||
                               init.sigma_extrinsic_translation <= 0.0)) {
     return "init.sigma_extrinsic_rotation: expected > 0 when estimate_extrinsics is true";

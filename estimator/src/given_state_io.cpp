@@ -6,7 +6,7 @@
 #include <vector>
 
 #include "vilma/core/error.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 
 namespace vilma::estimator {
 namespace {

@@ -23,6 +23,9 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
   const std::string rig_error = rig.Validate();
   if (!rig_error.empty()) throw InputError(FormatInputError("sensor rig", "", rig_error));
   camera_ = rig.cameras[static_cast<std::size_t>(camera_index)];
+  if (options.stereo.enabled) {
+    throw InputError(FormatInputError("filter options", "stereo.enabled", "false (stereo is not built yet)"));
+  }
   initializer_ = VisualInertialInitializer(camera_, rig.imu.gravity_magnitude, options.init.dynamic);
   // The detector ranks candidates with the tracker's own patch.
   options_.features.detector.patch = options_.features.patch;
@@ -345,6 +348,12 @@ std::string VioFilter::CheckHealth() const {
 }
 
 FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8) {
+  return AddImage(t_cam_ns, image_gray8, cv::Mat());
+}
+
+FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
+                                const cv::Mat& second_gray8) {
+  (void)second_gray8;
   ++stats_.frames;
   FrameResult result;
   const int64_t t_ns = t_cam_ns + camera_.time_offset_ns;

@@ -103,6 +103,27 @@ struct HealthOptions {
   std::string Validate() const;
 };
 
+// Stereo (ROVIO's multi-camera update, docs/estimator.md "Stereo"): every feature is anchored
+// in the VIO camera; the photometric update is also applied in the second camera, and a new
+// feature's inverse distance comes from a match in the second image where one is found.
+struct StereoOptions {
+  bool enabled = false;  // use the second camera (off: monocular, as before)
+  int camera = 1;        // rig index of the second camera (!= the VIO camera)
+  bool update = true;    // photometric update in the second camera too
+  // Stereo initialization of new features: the patch is searched along the epipolar line of
+  // the second image for inverse distances in [0, max_inverse_depth] (coarse steps of
+  // search_step_px), then aligned in 2D; accepted when the alignment converges with a mean
+  // |residual| below max_match_error and the pixel lies within max_epipolar_px of the line.
+  bool init_depth = true;
+  double max_inverse_depth = 5.0;     // nearest searched point: 1/5 = 0.2 m [1/m]
+  double search_step_px = 2.0;        // coarse search spacing along the line [px]
+  double max_match_error = 15.0;      // [grey levels]
+  double max_epipolar_px = 2.0;       // [px]
+  double match_pixel_sigma = 0.5;     // std of the matched pixel (sets rho's std) [px]
+  double min_inverse_depth_sigma = 0.02;  // floor of a matched feature's rho std [1/m]
+  std::string Validate() const;
+};
+
 struct FilterOptions {
   bool estimate_extrinsics = false;  // refine T_I_C online (else it is fixed from the rig)
   bool estimate_time_offset = false;  // refine the camera-IMU time offset online
@@ -111,6 +132,7 @@ struct FilterOptions {
   UpdateOptions update;
   FeatureOptions features;
   HealthOptions health;
+  StereoOptions stereo;
   // Empty if valid, else "section.field: expectation".
   std::string Validate() const;
 };

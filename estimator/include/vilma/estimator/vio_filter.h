@@ -88,6 +88,9 @@ class VioFilter {
   // One 8-bit grayscale image stamped in the camera clock. Initializes on the first frame
   // that has enough IMU data before it.
   FrameResult AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8);
+  // Stereo (options.stereo.enabled): the VIO camera's image and the second camera's image of
+  // the same (hardware-synchronized) frame; the second stamp is taken to be the first's.
+  FrameResult AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8, const cv::Mat& second_gray8);
   // Makes the next frame that would pass the health checks fail them with `reason` instead:
   // the same reset as a failed check (FrameResult::reset, re-initialization from the last
   // pose). For fault injection and tests (vilma-estimatord --fault-reset-filter-at).
