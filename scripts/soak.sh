@@ -97,8 +97,10 @@ for _ in $(seq 100); do grep -q ready "$out/mapstored.log" && break; sleep 0.1; 
   --localization-map "$prep/room0.vlocmap" > "$out/daemon.log" 2>&1 &
 daemon=$!; pids+=("$daemon")
 sleep 2
-# 30 s more than the soak: the sim must not end before the last sample.
-"$bin_run/vilma-sim" room --session 1 --seed 1 --seconds $(( minutes * 60 + 30 )) --live \
+# 30 s more than the soak, so that the sim does not end before the last sample; vilma-sim
+# simulates at most 3600 s, so a 60-min soak samples until 59:50.
+sim_seconds=$(( minutes * 60 + 30 > 3600 ? 3600 : minutes * 60 + 30 ))
+"$bin_run/vilma-sim" room --session 1 --seed 1 --seconds $sim_seconds --live \
   --rate "$rate" --lcm-url "$url" > "$out/sim.log" 2>&1 &
 sim=$!; pids+=("$sim")
 
@@ -120,7 +122,7 @@ declare -A last_ticks
 for i in "${!procs[@]}"; do read -r t _ < <(proc_sample "${procs[$i]}"); last_ticks[$i]=$t; done
 start_ns=$(date +%s%N); last_ns=$start_ns
 echo "soak.sh: $minutes min, output in $out (load average now: $(cut -d' ' -f1-3 /proc/loadavg))"
-samples=$(( minutes * 6 ))
+samples=$(( minutes * 6 < (sim_seconds - 5) / 10 ? minutes * 6 : (sim_seconds - 5) / 10 ))
 for k in $(seq 1 "$samples"); do
   target_ns=$(( start_ns + k * 10000000000 ))
   now_ns=$(date +%s%N)
