@@ -36,11 +36,11 @@ std::string CommandLineError(const std::vector<std::string>& args) {
 TEST_CASE("Aravis options: defaults are valid; channels", "[aravis]") {
   AravisOptions o;
   CHECK(o.Validate().empty());
-  CHECK(o.ImageChannel() == "CAM0");
+  CHECK(o.DataChannel() == "CAM0");
   CHECK(o.StatusChannel() == "VILMA_STATUS_CAM0");
   o.channel = "CAM1";
   o.channel_suffix = "_R2";
-  CHECK(o.ImageChannel() == "CAM1_R2");
+  CHECK(o.DataChannel() == "CAM1_R2");
   CHECK(o.StatusChannel() == "VILMA_STATUS_CAM1_R2");
   o.status_channel = "HEALTH";
   CHECK(o.StatusChannel() == "HEALTH_R2");

@@ -101,7 +101,7 @@ TEST_CASE("DecodeMissionChunk: bad length fields are errors, never exceptions",
   longer.push_back(0);
   CHECK(Decode(longer) == "mission_chunk_t: 1 bytes after the last field");
   // Another type's bytes: the walk may pass, the type hash does not.
-  imu_t imu;
+  imu_t imu{};
   CHECK_FALSE(Decode(Encode(imu)).empty());
   mission_chunk_t unused;
   CHECK_FALSE(DecodeMissionChunk(nullptr, 10, &unused).empty());

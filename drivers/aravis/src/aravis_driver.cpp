@@ -104,7 +104,7 @@ AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,
   DriverStatus status(kProgram);
   StatusPublisher status_publisher(&status, lcm, options.StatusChannel(), options.status_period_s);
   status_publisher.Start();
-  const std::string channel = options.ImageChannel();
+  const std::string channel = options.DataChannel();
   const char* notify_socket = std::getenv("NOTIFY_SOCKET");
   const bool notify = notify_socket != nullptr && notify_socket[0] != '\0';
   uint64_t watchdog_usec = 0;

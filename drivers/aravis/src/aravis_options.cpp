@@ -86,13 +86,8 @@ AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
   o.time_offset_us = root.GetOr("time_offset_us", o.time_offset_us);
   o.transport_latency_us = root.GetOr("transport_latency_us", o.transport_latency_us);
   if (root.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(root.MapChild("clock_sync"), o.clock_sync);
-  o.lcm_url = root.GetOr("lcm_url", o.lcm_url);
-  o.channel = root.GetOr("channel", o.channel);
-  o.channel_suffix = root.GetOr("channel_suffix", o.channel_suffix);
-  o.status_channel = root.GetOr("status_channel", o.status_channel);
+  ReadDriverLcmOptions(root, &o);
   o.camera_id = root.GetOr("camera_id", o.camera_id);
-  o.status_period_s = root.GetOr("status_period_s", o.status_period_s);
-  o.seconds = root.GetOr("seconds", o.seconds);
   o.frames = root.GetOr("frames", o.frames);
   o.fault_lose_camera_after = root.GetOr("fault_lose_camera_after", o.fault_lose_camera_after);
   root.CheckNoUnknownKeys();
@@ -101,13 +96,6 @@ AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
 }
 
 }  // namespace
-
-std::string AravisOptions::ImageChannel() const { return ChannelName(channel, channel_suffix); }
-
-std::string AravisOptions::StatusChannel() const {
-  return ChannelName(status_channel.empty() ? DefaultStatusChannel(channel) : status_channel,
-                     channel_suffix);
-}
 
 std::string AravisOptions::Validate() const {
   if (fake && !device.empty() && device.rfind("Fake", 0) != 0) {
@@ -154,15 +142,8 @@ std::string AravisOptions::Validate() const {
     const std::string e = clock_sync.Validate();
     if (!e.empty()) return "clock_sync." + e;
   }
-  for (const auto& [field, name] : {std::pair<const char*, std::string>{"channel", ImageChannel()},
-                                    {"status_channel", StatusChannel()}}) {
-    const std::string e = ValidateChannelName(name);
-    if (!e.empty()) return std::string(field) + ": " + e;
-  }
-  if (ImageChannel() == StatusChannel()) return "status_channel: expected another channel than channel";
+  VILMA_RETURN_IF_ERROR(ValidateLcm());
   if (camera_id < 0) return "camera_id: expected >= 0";
-  VILMA_RETURN_IF_ERROR(ValidatePositive("status_period_s", status_period_s));
-  VILMA_RETURN_IF_ERROR(ValidateNonNegative("seconds", seconds));
   if (frames < 0) return "frames: expected >= 0";
   if (fault_lose_camera_after < 0) return "fault_lose_camera_after: expected >= 0";
   return "";
@@ -208,17 +189,11 @@ std::string AravisOptionsToYaml(const AravisOptions& o) {
   kv("time_offset_us", o.time_offset_us);
   kv("transport_latency_us", o.transport_latency_us);
   EmitClockSyncOptions(out, "clock_sync", o.clock_sync);
-  kv("lcm_url", o.lcm_url);
-  kv("channel", o.channel);
-  kv("channel_suffix", o.channel_suffix);
-  kv("status_channel", o.status_channel);
   kv("camera_id", o.camera_id);
-  kv("status_period_s", o.status_period_s);
-  kv("seconds", o.seconds);
   kv("frames", o.frames);
   kv("fault_lose_camera_after", o.fault_lose_camera_after);
   out << YAML::EndMap;
-  return std::string(out.c_str()) + "\n";
+  return std::string(out.c_str()) + "\n" + DriverLcmOptionsYaml(o);
 }
 
 AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
@@ -278,7 +253,7 @@ AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
 }
 
 std::string AravisUsage() {
-  return R"(Usage: vilma-aravis [--config FILE] [options]
+  return std::string(R"(Usage: vilma-aravis [--config FILE] [options]
        vilma-aravis --list [--fake] [--device ID]
 
 Publishes a GenICam camera (GigE Vision / USB3 Vision, through Aravis 0.8) on LCM: images as
@@ -327,21 +302,14 @@ override the file; booleans take no value and have a --no-... form):
   --time-offset-us T      constant added to utime [us] (default 0)
   --transport-latency-us T   least time from the end of exposure to the buffer's arrival
                           stamp (readout, first packet) [us] (default 0)
-  --lcm-url URL           LCM provider (default $LCM_DEFAULT_URL, else
-                          udpm://239.255.76.67:7667?ttl=0)
-  --channel NAME          image channel (default CAM0)
-  --channel-suffix S      appended to every channel name (e.g. _R2)
-  --status-channel NAME   status channel (default VILMA_STATUS_<channel>)
-  --camera-id N           image_t.camera_id (default 0)
-  --status-period-s T     status report period (default 1)
-  --seconds T             stop after T s (default 0 = until SIGINT/SIGTERM)
+)" + DriverLcmUsage(AravisOptions(), 26) + R"(  --camera-id N           image_t.camera_id (default 0)
   --frames N              stop after N published frames (default 0 = no limit)
   --fault-lose-camera-after N   test: treat the camera as lost after N frames (reconnects)
   (clock_sync.* filter options: YAML only, see config/aravis.yaml)
 
 Exit status: 0 on a clean stop (SIGINT, SIGTERM, --seconds, --frames), 1 on a runtime failure
 (no camera, camera refuses a setting, LCM unusable), 2 on a bad command line or options file.
-)";
+)");
 }
 
 }  // namespace vilma::aravis

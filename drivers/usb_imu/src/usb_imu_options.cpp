@@ -19,11 +19,6 @@
 namespace vilma::usb_imu {
 namespace {
 
-std::string CheckChannel(const char* field, const std::string& name) {
-  const std::string problem = ValidateChannelName(name);
-  return problem.empty() ? "" : std::string(field) + ": " + problem;
-}
-
 std::string CheckId(const char* field, int id) {
   if (id < 0 || id > 0xFFFF) return std::string(field) + ": expected a 16-bit id (0 .. 0xffff)";
   return "";
@@ -58,12 +53,6 @@ std::string Hex(int id) {
 
 }  // namespace
 
-std::string UsbImuOptions::DataChannel() const { return ChannelName(channel, channel_suffix); }
-
-std::string UsbImuOptions::StatusChannel() const {
-  return ChannelName(status_channel.empty() ? DefaultStatusChannel(channel) : status_channel,
-                     channel_suffix);
-}
 
 std::string UsbImuOptions::Validate() const {
   if (transport != "serial" && transport != "usb" && transport != "replay") {
@@ -107,13 +96,7 @@ std::string UsbImuOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(ValidateNonNegative("transport_latency_us", transport_latency_us));
   const std::string clock_error = clock_sync.Validate();
   if (!clock_error.empty()) return "clock_sync." + clock_error;
-  VILMA_RETURN_IF_ERROR(CheckChannel("channel", DataChannel()));
-  VILMA_RETURN_IF_ERROR(CheckChannel("status_channel", StatusChannel()));
-  if (DataChannel() == StatusChannel()) return "status_channel: expected a channel other than channel";
-  if (!(std::isfinite(status_period_s) && status_period_s >= 0.05 && status_period_s <= 60.0)) {
-    return "status_period_s: expected 0.05 .. 60";
-  }
-  VILMA_RETURN_IF_ERROR(ValidateNonNegative("seconds", seconds));
+  VILMA_RETURN_IF_ERROR(ValidateLcm());
   VILMA_RETURN_IF_ERROR(ValidatePositive("stall_timeout_s", stall_timeout_s));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("reconnect_max_backoff_s", reconnect_max_backoff_s, 0.1));
   return "";
@@ -153,12 +136,7 @@ UsbImuOptions ReadUsbImuOptions(const YamlNode& node) {
   o.time_source = node.GetOr("time_source", o.time_source);
   o.transport_latency_us = node.GetOr("transport_latency_us", o.transport_latency_us);
   if (node.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(node.MapChild("clock_sync"), o.clock_sync);
-  o.lcm_url = node.GetOr("lcm_url", o.lcm_url);
-  o.channel = node.GetOr("channel", o.channel);
-  o.channel_suffix = node.GetOr("channel_suffix", o.channel_suffix);
-  o.status_channel = node.GetOr("status_channel", o.status_channel);
-  o.status_period_s = node.GetOr("status_period_s", o.status_period_s);
-  o.seconds = node.GetOr("seconds", o.seconds);
+  ReadDriverLcmOptions(node, &o);
   o.stall_timeout_s = node.GetOr("stall_timeout_s", o.stall_timeout_s);
   o.reconnect_max_backoff_s = node.GetOr("reconnect_max_backoff_s", o.reconnect_max_backoff_s);
   node.CheckNoUnknownKeys();
@@ -196,16 +174,10 @@ std::string UsbImuOptionsToYaml(const UsbImuOptions& o) {
   kv("time_source", o.time_source);
   kv("transport_latency_us", o.transport_latency_us);
   EmitClockSyncOptions(out, "clock_sync", o.clock_sync);
-  kv("lcm_url", o.lcm_url);
-  kv("channel", o.channel);
-  kv("channel_suffix", o.channel_suffix);
-  kv("status_channel", o.status_channel);
-  kv("status_period_s", o.status_period_s);
-  kv("seconds", o.seconds);
   kv("stall_timeout_s", o.stall_timeout_s);
   kv("reconnect_max_backoff_s", o.reconnect_max_backoff_s);
   out << YAML::EndMap;
-  return std::string(out.c_str()) + "\n";
+  return std::string(out.c_str()) + "\n" + DriverLcmOptionsYaml(o);
 }
 
 UsbImuCommandLine ParseUsbImuCommandLine(int argc, const char* const* argv) {
@@ -260,18 +232,7 @@ UsbImuCommandLine ParseUsbImuCommandLine(int argc, const char* const* argv) {
       o.time_source = arg.Value();
     } else if (name == "--transport-latency-us") {
       o.transport_latency_us = arg.DoubleValue();
-    } else if (name == "--lcm-url") {
-      o.lcm_url = arg.Value();
-    } else if (name == "--channel") {
-      o.channel = arg.Value();
-    } else if (name == "--channel-suffix") {
-      o.channel_suffix = arg.Value();
-    } else if (name == "--status-channel") {
-      o.status_channel = arg.Value();
-    } else if (name == "--seconds") {
-      o.seconds = arg.DoubleValue();
-    } else if (name == "--status-period-s") {
-      o.status_period_s = arg.DoubleValue();
+    } else if (ParseDriverLcmFlag(arg, &o)) {
     } else if (name == "--stall-timeout-s") {
       o.stall_timeout_s = arg.DoubleValue();
     } else if (name == "--reconnect-max-backoff-s") {
@@ -328,13 +289,7 @@ Options (flags override --config; defaults in brackets):
                             device stamps through clock sync, or shifted by the first
                             sample's offset [)" << d.time_source << R"(]
   --transport-latency-us U  fixed delay from sampling to arrival, subtracted [0]
-  --lcm-url URL             LCM provider [$LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0]
-  --channel NAME            imu_t channel [IMU]
-  --channel-suffix S        appended to every channel name
-  --status-channel NAME     status_t channel [VILMA_STATUS_<channel>]
-  --status-period-s S       status report period [)" << d.status_period_s << R"(]
-  --seconds N               stop after N seconds (0 = until SIGINT/SIGTERM) [0]
-  --stall-timeout-s S       no sample for this long: status DEGRADED [)" << d.stall_timeout_s << R"(]
+)" << DriverLcmUsage(d) << R"(  --stall-timeout-s S       no sample for this long: status DEGRADED [)" << d.stall_timeout_s << R"(]
   --reconnect-max-backoff-s S
                             reopen tries back off from 0.1 s to this [)" << d.reconnect_max_backoff_s << R"(]
   --print-config            print the effective options as YAML and exit

@@ -75,25 +75,10 @@ bool ParseGain(const std::string& text, int* gain) {
 std::string V4l2DriverOptions::Validate() const {
   const std::string capture_error = capture.Validate();
   if (!capture_error.empty()) return capture_error;
-  const std::string channel_error = ValidateChannelName(DataChannel());
-  if (!channel_error.empty()) return "channel: " + channel_error;
-  const std::string status_error = ValidateChannelName(StatusChannel());
-  if (!status_error.empty()) return "status_channel: " + status_error;
-  if (StatusChannel() == DataChannel())
-    return "status_channel: expected another channel than channel";
+  const std::string lcm_error = ValidateLcm();
+  if (!lcm_error.empty()) return lcm_error;
   if (camera_id < 0) return "camera_id: expected >= 0";
-  if (!(std::isfinite(status_period_s) && status_period_s >= 0.05 && status_period_s <= 60.0)) {
-    return "status_period_s: expected 0.05 .. 60 [s]";
-  }
-  if (!(std::isfinite(seconds) && seconds >= 0.0)) return "seconds: expected >= 0 (0 = no limit)";
   return "";
-}
-
-std::string V4l2DriverOptions::DataChannel() const { return ChannelName(channel, channel_suffix); }
-
-std::string V4l2DriverOptions::StatusChannel() const {
-  return ChannelName(status_channel.empty() ? DefaultStatusChannel(channel) : status_channel,
-                     channel_suffix);
 }
 
 V4l2DriverOptions ReadV4l2Options(const YamlNode& root, const V4l2DriverOptions& defaults) {
@@ -156,13 +141,8 @@ V4l2DriverOptions ReadV4l2Options(const YamlNode& root, const V4l2DriverOptions&
     c.frame_timeout_s = NumberOr(r, "frame_timeout_s", c.frame_timeout_s);
     r.CheckNoUnknownKeys();
   }
-  o.lcm_url = root.GetOr<std::string>("lcm_url", o.lcm_url);
-  o.channel = root.GetOr<std::string>("channel", o.channel);
-  o.channel_suffix = root.GetOr<std::string>("channel_suffix", o.channel_suffix);
-  o.status_channel = root.GetOr<std::string>("status_channel", o.status_channel);
+  ReadDriverLcmOptions(root, &o);
   o.camera_id = root.GetOr<int>("camera_id", o.camera_id);
-  o.status_period_s = NumberOr(root, "status_period_s", o.status_period_s);
-  o.seconds = NumberOr(root, "seconds", o.seconds);
   root.CheckNoUnknownKeys();
   root.CheckValid(o.Validate());
   return o;
@@ -215,18 +195,12 @@ std::string V4l2OptionsYaml(const V4l2DriverOptions& o) {
   y << "  reconnect_initial_s: " << c.reconnect_initial_s << "\n";
   y << "  reconnect_max_s: " << c.reconnect_max_s << "\n";
   y << "  frame_timeout_s: " << c.frame_timeout_s << "\n";
-  y << "lcm_url: " << quoted(o.lcm_url) << "\n";
-  y << "channel: " << quoted(o.channel) << "\n";
-  y << "channel_suffix: " << quoted(o.channel_suffix) << "\n";
-  y << "status_channel: " << quoted(o.status_channel) << "\n";
   y << "camera_id: " << o.camera_id << "\n";
-  y << "status_period_s: " << o.status_period_s << "\n";
-  y << "seconds: " << o.seconds << "\n";
-  return y.str();
+  return y.str() + DriverLcmOptionsYaml(o);
 }
 
 std::string V4l2Usage() {
-  return R"(Usage: vilma-v4l2 [--config FILE] [options]
+  return std::string(R"(Usage: vilma-v4l2 [--config FILE] [options]
        vilma-v4l2 --list [--fake]
 
 Publishes a V4L2 camera (USB UVC, MIPI) on LCM: every frame as a vilma.image_t (GRAY8, or
@@ -258,13 +232,7 @@ Options (each overrides the same field of --config; defaults in brackets):
                         hardware timestamps: end_of_exposure), start_of_exposure,
                         end_of_exposure, end_of_frame [auto]
   --buffer-stamps       publish the kernel's buffer stamp, not mid-exposure
-  --lcm-url URL         LCM provider [$LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0]
-  --channel NAME        image channel [CAM0]
-  --camera-id N         image_t.camera_id, the camera's index in the rig [0]
-  --channel-suffix S    appended to every channel name (e.g. _R2) []
-  --status-channel NAME status channel [VILMA_STATUS_<channel>]
-  --status-period-s S   status_t period [s] [1]
-  --seconds S           stop after S seconds [0 = run until SIGINT/SIGTERM]
+)" + DriverLcmUsage(V4l2DriverOptions(), 24) + R"(  --camera-id N         image_t.camera_id, the camera's index in the rig [0]
   --fake                use the built-in fake camera (no hardware; for demos and tests)
   --fake-unplug-after N with --fake: unplug the camera after N frames for 0.5 s (recovery)
   --list                print the devices, their formats, sizes, rates and controls; exit
@@ -274,7 +242,7 @@ Options (each overrides the same field of --config; defaults in brackets):
 Exit status: 0 success (also after SIGINT/SIGTERM or --seconds), 1 a camera that cannot be
 opened or cannot deliver what is asked (the message says what it offers) or LCM unusable;
 --list: no capture device; 2 a bad command line or options file.
-)";
+)");
 }
 
 V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, bool* help) {
@@ -361,20 +329,9 @@ V4l2DriverOptions ParseV4l2CommandLine(const std::vector<std::string>& args, boo
       }
     } else if (name == "--buffer-stamps") {
       c.timestamps.mid_exposure = !arg.Flag();
-    } else if (name == "--lcm-url") {
-      o.lcm_url = arg.Value();
-    } else if (name == "--channel") {
-      o.channel = arg.Value();
+    } else if (ParseDriverLcmFlag(arg, &o)) {
     } else if (name == "--camera-id") {
       o.camera_id = integer(arg);
-    } else if (name == "--channel-suffix") {
-      o.channel_suffix = arg.Value();
-    } else if (name == "--status-channel") {
-      o.status_channel = arg.Value();
-    } else if (name == "--status-period-s") {
-      o.status_period_s = number(arg);
-    } else if (name == "--seconds") {
-      o.seconds = number(arg);
     } else if (name == "--fake") {
       o.fake = arg.Flag();
     } else if (name == "--fake-unplug-after") {

@@ -25,7 +25,7 @@ struct AravisRunSummary {
 
 // Opens the camera (options.device / options.fake), streams until `stop` becomes true,
 // options.seconds or options.frames is reached, publishing every complete frame on
-// options.ImageChannel() through `lcm` and a status every options.status_period_s. A camera
+// options.DataChannel() through `lcm` and a status every options.status_period_s. A camera
 // that cannot be opened at the start is an error; one lost later is reopened every
 // options.reconnect_interval_s (counted in `reconnects`). `log` gets one line per event.
 AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,

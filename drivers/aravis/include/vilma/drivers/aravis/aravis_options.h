@@ -8,10 +8,15 @@
 #include <vector>
 
 #include "vilma/core/clock_sync.h"
+#include "vilma/drivers/driver_lcm_options.h"
 
 namespace vilma::aravis {
 
-struct AravisOptions {
+// The LCM part (lcm_url, channel [CAM0], channel_suffix, status_channel, status_period_s,
+// seconds) is DriverLcmOptions, shared with the other drivers.
+struct AravisOptions : DriverLcmOptions {
+  AravisOptions() { channel = "CAM0"; }
+
   // --- device
   // Camera to open: Aravis device id ("Basler-21234567", "Fake_1"), serial number, physical
   // id (MAC address / USB path) or IP address; "" opens the first camera found.
@@ -79,25 +84,15 @@ struct AravisOptions {
   double transport_latency_us = 0.0;
   ClockSyncOptions clock_sync;
 
-  // --- LCM
-  std::string lcm_url;  // "" = $LCM_DEFAULT_URL or LCM's default
-  std::string channel = "CAM0";
-  std::string channel_suffix;
-  // "" = VILMA_STATUS_<channel>; the suffix is applied to it as well.
-  std::string status_channel;
+  // --- LCM (besides DriverLcmOptions)
   int camera_id = 0;  // image_t.camera_id: the camera's index in the sensor rig
-  double status_period_s = 1.0;
 
-  // --- run
-  double seconds = 0.0;  // stop after this long [s]; 0 = until SIGINT/SIGTERM
+  // --- run (besides DriverLcmOptions::seconds)
   int64_t frames = 0;    // stop after this many published frames; 0 = no limit
   // Test only: pretend the camera was lost after this many frames (reconnect path); 0 = off.
   int64_t fault_lose_camera_after = 0;
 
   std::string Validate() const;
-  // Channel names with the suffix applied.
-  std::string ImageChannel() const;
-  std::string StatusChannel() const;
 };
 
 // Reads options from a YAML map over `base` (absent keys keep base's values). Throws InputError

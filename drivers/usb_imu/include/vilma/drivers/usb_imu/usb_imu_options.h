@@ -8,10 +8,15 @@
 
 #include "vilma/core/clock_sync.h"
 #include "vilma/core/yaml_io.h"
+#include "vilma/drivers/driver_lcm_options.h"
 
 namespace vilma::usb_imu {
 
-struct UsbImuOptions {
+// The LCM part (lcm_url, channel [IMU], channel_suffix, status_channel, status_period_s,
+// seconds) is DriverLcmOptions, shared with the camera drivers.
+struct UsbImuOptions : DriverLcmOptions {
+  UsbImuOptions() { channel = "IMU"; }
+
   // Where the bytes come from: "serial" (a tty: /dev/ttyACM0 of cdc_acm, a UART adapter),
   // "usb" (libusb, by vendor/product id) or "replay" (a recorded byte stream, for tests/demos).
   std::string transport = "serial";
@@ -44,25 +49,16 @@ struct UsbImuOptions {
   double transport_latency_us = 0.0;
   ClockSyncOptions clock_sync;
 
-  std::string lcm_url;            // "" = $LCM_DEFAULT_URL or LCM's default (ttl=0)
-  std::string channel = "IMU";    // imu_t channel (before the suffix)
-  std::string channel_suffix;     // appended to every channel name
-  std::string status_channel;     // status_t channel (before the suffix); "" = VILMA_STATUS_<channel>
-  double status_period_s = 1.0;   // status report period [s]
-  double seconds = 0.0;           // stop after this long [s]; 0 = until SIGINT/SIGTERM
   double stall_timeout_s = 1.0;   // no sample for this long: status DEGRADED [s]
   double reconnect_max_backoff_s = 2.0;  // reopen tries back off from 0.1 s up to this [s]
 
   // "" when valid, else "field: expectation".
   std::string Validate() const;
-  std::string DataChannel() const;    // channel + suffix
-  std::string StatusChannel() const;  // status channel + suffix
 };
 
 // Reads every key of `node` (a map); InputError naming file, key and expectation otherwise.
 UsbImuOptions ReadUsbImuOptions(const YamlNode& node);
 UsbImuOptions LoadUsbImuOptions(const std::string& path);
-ClockSyncOptions ReadClockSyncOptions(const YamlNode& node);
 // The options as YAML that ReadUsbImuOptions reads back (--print-config).
 std::string UsbImuOptionsToYaml(const UsbImuOptions& options);
 

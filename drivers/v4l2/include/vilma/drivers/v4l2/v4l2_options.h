@@ -8,19 +8,18 @@
 #include <vector>
 
 #include "vilma/core/yaml_io.h"
+#include "vilma/drivers/driver_lcm_options.h"
 #include "vilma/drivers/v4l2/v4l2_capture.h"
 
 namespace vilma::v4l2 {
 
-struct V4l2DriverOptions {
+// The LCM part (lcm_url, channel [CAM0], channel_suffix, status_channel, status_period_s,
+// seconds) is DriverLcmOptions, shared with the other drivers.
+struct V4l2DriverOptions : DriverLcmOptions {
+  V4l2DriverOptions() { channel = "CAM0"; }
+
   CaptureOptions capture;
-  std::string lcm_url;           // "" = $LCM_DEFAULT_URL or LCM's default (ttl=0)
-  std::string channel = "CAM0";  // image_t channel (before the suffix)
-  std::string channel_suffix;    // appended to every channel (several robots on one network)
-  std::string status_channel;    // "" = VILMA_STATUS_<channel>
-  int camera_id = 0;             // image_t.camera_id: the camera's index in the sensor rig
-  double status_period_s = 1.0;  // status_t period [s]
-  double seconds = 0.0;          // stop after this long [s]; 0 = until SIGINT/SIGTERM
+  int camera_id = 0;  // image_t.camera_id: the camera's index in the rig
   // Command line only:
   bool fake = false;  // the in-process fake camera (fake_v4l2_io.h) instead of the kernel
   // With --fake: unplug the fake camera after this many frames for fake_unplug_s, to show the
@@ -33,8 +32,6 @@ struct V4l2DriverOptions {
 
   // "" or "field: expectation".
   std::string Validate() const;
-  std::string DataChannel() const;    // channel + suffix
-  std::string StatusChannel() const;  // (status_channel or VILMA_STATUS_<channel>) + suffix
 };
 
 // Reads the options of a YAML map (absent keys keep the defaults of `defaults`). Throws
