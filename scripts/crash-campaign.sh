@@ -9,12 +9,21 @@
 # Even runs SIGKILL the sender: mapstored finalizes an incomplete mission, which must hold every
 # vertex the sender saw acknowledged ("acked N" = chunks 0..N durable). Every map must load and
 # pass check_map_consistency.
+# Daemon runs: the real vilma-estimatord maps a simulated room session (12 s, replayed live by
+# vilma-replay) and streams the mission to vilma-mapstored; at a uniformly random time of the
+# replay, odd runs SIGKILL mapstored and even runs SIGKILL the daemon, which is restarted after
+# 0-0.5 s and goes on with the rest of the replay (a new mission). lcm-logger records the
+# stream; vilma-mission-audit then checks that every vertex of every chunk mapstored
+# acknowledged is in the finalized maps, and every map folder must load and pass
+# check_map_consistency.
 # Save runs: `vilma console` loads a map, changes it (keyframing) and saves it over itself; it
 # is SIGKILLed at a uniformly random time during the command; the folder must then load as the
 # previous generation or the new one, never broken.
 #
-# Usage: scripts/crash-campaign.sh [--runs N] [--save-runs N] [--seed S]
+# Usage: scripts/crash-campaign.sh [--runs N] [--daemon-runs N] [--save-runs N] [--seed S]
 #   --runs N       stream runs (default 100), alternating mapstored / sender kills
+#   --daemon-runs N  runs with vilma-estimatord (default 100; about 20 s each), alternating
+#                  mapstored / daemon kills
 #   --save-runs N  save runs (default 100)
 #   --seed S       of the kill times (default 1; the same seed gives the same kill times)
 #   VILMA_BUILD_DIR  build folder (default <repo>/build); work in ~/.cache/vilma/crash-campaign
@@ -25,26 +34,30 @@ bin=${VILMA_BUILD_DIR:-$repo_dir/build}/bin
 work=${VILMA_CRASH_DIR:-$HOME/.cache/vilma/crash-campaign}
 runs=100
 save_runs=100
+daemon_runs=100
 seed=1
 while [ $# -gt 0 ]; do
   case "$1" in
     --runs) runs=$2; shift 2 ;;
     --save-runs) save_runs=$2; shift 2 ;;
+    --daemon-runs) daemon_runs=$2; shift 2 ;;
     --seed) seed=$2; shift 2 ;;
-    -h|--help) sed -n '2,20p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'  | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "crash-campaign.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
-for n in "$runs" "$save_runs" "$seed"; do
+for n in "$runs" "$save_runs" "$daemon_runs" "$seed"; do
   [[ "$n" =~ ^[0-9]+$ ]] || { echo "crash-campaign.sh: expected a non-negative integer, got '$n'" >&2; exit 2; }
 done
-for p in vilma-mapstored vilma-mission-sender vilma; do
+for p in vilma-mapstored vilma-mission-sender vilma vilma-estimatord vilma-replay vilma-sim \
+         vilma-mission-audit; do
   [ -x "$bin/$p" ] || { echo "crash-campaign.sh: $bin/$p not built" >&2; exit 1; }
 done
 rm -rf "$work"
 mkdir -p "$work/bin"
 # Private copies: a rebuild during the campaign must not be taken for a broken map.
-cp "$bin/vilma-mapstored" "$bin/vilma-mission-sender" "$bin/vilma" "$work/bin/"
+cp "$bin/vilma-mapstored" "$bin/vilma-mission-sender" "$bin/vilma" "$bin/vilma-estimatord" \
+   "$bin/vilma-replay" "$bin/vilma-sim" "$bin/vilma-mission-audit" "$work/bin/"
 bin=$work/bin
 RANDOM=$seed
 
@@ -122,6 +135,107 @@ for run in $(seq 1 "$runs"); do
   [ "$status" = ok ] && rm -rf "$dir"
 done
 
+# Daemon runs (see the header).
+declare -A d_runs=([mapstored]=0 [daemon]=0) d_lost=([mapstored]=0 [daemon]=0) \
+  d_acked=([mapstored]=0 [daemon]=0) d_unloadable=([mapstored]=0 [daemon]=0) \
+  d_audit_failed=([mapstored]=0 [daemon]=0) d_unseen=([mapstored]=0 [daemon]=0) \
+  d_missions=([mapstored]=0 [daemon]=0)
+if [ "$daemon_runs" -gt 0 ]; then
+  command -v lcm-logger > /dev/null ||
+    { echo "crash-campaign.sh: lcm-logger not found (Debian liblcm-bin)" >&2; exit 1; }
+  data=$work/daemon-data
+  mkdir -p "$data"
+  "$bin/vilma-sim" room --session 0 --seed 3 --seconds 12 --out "$data/room" > "$data/sim.log"
+  # config/daemon.yaml with map building and the stream on (as scripts/soak.sh).
+  sed -e 's/^  enabled: false          # run the map-builder/  enabled: true           # run the map-builder/' \
+      -e '/^  stream:/,/^    enabled:/ s/^    enabled: false/    enabled: true/' \
+      -e 's/^  mission_name: ""/  mission_name: "crash"/' \
+      -e 's/^    end_timeout_s: 5.0/    end_timeout_s: 15.0/' "$repo_dir/config/daemon.yaml" > "$data/daemon.yaml"
+  grep -q '^    end_timeout_s: 15.0' "$data/daemon.yaml" ||
+    { echo "crash-campaign.sh: config/daemon.yaml changed: cannot turn streaming on" >&2; exit 1; }
+  printf 'incomplete_timeout_s: 1.0\n' > "$data/mapstored.yaml"
+fi
+for run in $(seq 1 "$daemon_runs"); do
+  dir=$work/daemon-$run
+  mkdir -p "$dir"
+  port=$(( 20000 + (run * 13 + seed + 7) % 40000 ))
+  url="udpm://239.255.76.67:$port?ttl=0&recv_buf_size=8388608"
+  lcm-logger --lcm-url="$url" --channel='VILMA_MISSION.*' --quiet "$dir/stream.lcmlog" \
+    > "$dir/logger.log" 2>&1 &
+  logger=$!
+  start_store() {
+    "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" --config "$data/mapstored.yaml" \
+      >> "$dir/mapstored.log" 2>&1 &
+    store=$!
+  }
+  start_daemon() {
+    "$bin/vilma-estimatord" --config "$data/daemon.yaml" --rig "$data/room/rig.yaml" \
+      --lcm-url "$url" >> "$dir/daemon.log" 2>&1 &
+    daemon=$!
+  }
+  start_store
+  for _ in $(seq 50); do grep -q ready "$dir/mapstored.log" && break; sleep 0.1; done
+  start_daemon
+  sleep 1
+  "$bin/vilma-replay" "$data/room" --lcm-url "$url" --quiet > "$dir/replay.log" 2>&1 &
+  replay=$!
+  kill_at=$(random_ms 2000 11500)  # the session is 12 s; tracking and deltas start after ~2 s
+  sleep_ms "$kill_at"
+  if [ $((run % 2)) -eq 1 ]; then
+    killed=mapstored
+    kill -9 $store 2> /dev/null || true; wait $store 2> /dev/null || true
+    sleep_ms "$(random_ms 0 500)"
+    echo "--- restart after kill -9 at $kill_at ms" >> "$dir/mapstored.log"
+    start_store
+  else
+    killed=daemon
+    kill -9 $daemon 2> /dev/null || true; wait $daemon 2> /dev/null || true
+    sleep_ms "$(random_ms 0 500)"
+    echo "--- restart after kill -9 at $kill_at ms" >> "$dir/daemon.log"
+    start_daemon
+  fi
+  wait $replay || true
+  sleep 1
+  # SIGTERM: the daemon flushes, ends its mission and waits for mapstored's final ack.
+  kill -TERM $daemon 2> /dev/null || true
+  wait $daemon 2> /dev/null || true
+  # The killed daemon's mission is finalized as incomplete after 1 s without chunks.
+  if [ "$killed" = daemon ]; then
+    for _ in $(seq 100); do grep -q "finalized as incomplete" "$dir/mapstored.log" && break; sleep 0.1; done
+  fi
+  sleep 0.5
+  kill -TERM $store 2> /dev/null || true; wait $store 2> /dev/null || true
+  kill -INT $logger 2> /dev/null || true; wait $logger 2> /dev/null || true
+  "$bin/vilma-mission-audit" "$dir/stream.lcmlog" "$dir/maps" > "$dir/audit.txt" 2>&1 || true
+  audit=$(tail -1 "$dir/audit.txt")
+  lost=$(sed -n 's/.*, lost \([0-9]*\),.*/\1/p' <<< "$audit"); lost=${lost:-unknown}
+  acked=$(sed -n 's/.*acknowledged vertices \([0-9]*\),.*/\1/p' <<< "$audit"); acked=${acked:-0}
+  unseen=$(sed -n 's/.*unseen chunks \([0-9]*\),.*/\1/p' <<< "$audit"); unseen=${unseen:-0}
+  missions=$(sed -n 's/^audit: missions \([0-9]*\),.*/\1/p' <<< "$audit"); missions=${missions:-0}
+  status=ok; bad_maps=0; inconsistent=0
+  for map in "$dir"/maps/*/; do
+    [ -d "$map" ] || continue
+    got=$(check_map "$map")
+    if [ "$got" = unloadable ]; then bad_maps=$((bad_maps + 1)); fi
+  done
+  if [ "$lost" = unknown ]; then
+    status="AUDIT FAILED"; inconsistent=1
+  elif [ "$lost" -gt 0 ]; then
+    status="LOST $lost"
+  fi
+  [ "$bad_maps" -gt 0 ] && status="$status, $bad_maps UNLOADABLE/INCONSISTENT"
+  d_runs[$killed]=$((${d_runs[$killed]} + 1))
+  d_lost[$killed]=$((${d_lost[$killed]} + ${lost/unknown/0}))
+  d_unloadable[$killed]=$((${d_unloadable[$killed]} + bad_maps))
+  d_audit_failed[$killed]=$((${d_audit_failed[$killed]} + inconsistent))
+  d_acked[$killed]=$((${d_acked[$killed]} + acked))
+  d_unseen[$killed]=$((${d_unseen[$killed]} + unseen))
+  d_missions[$killed]=$((${d_missions[$killed]} + missions))
+  echo "daemon run $run: kill $killed at ${kill_at} ms, missions $missions, acknowledged $acked vertices, unseen chunks $unseen: $status" >> "$work/runs.log"
+  sed 's/^/    /' "$dir/audit.txt" >> "$work/runs.log"
+  [ "$status" = ok ] && rm -rf "$dir"
+done
+
 # Save runs: a map to save over, made by one clean stream run.
 save_lost=0; save_unloadable=0; save_old=0; save_new=0
 if [ "$save_runs" -gt 0 ]; then
@@ -175,10 +289,16 @@ echo "| campaign | runs | acknowledged vertices lost | unloadable maps | other |
 echo "|---|---:|---:|---:|---|"
 echo "| kill -9 of vilma-mapstored mid-stream, restart | $mapstored_kills | ${lost[mapstored]} | ${unloadable[mapstored]} | missions not finished after the restart: $stream_failed |"
 echo "| kill -9 of the sender mid-stream | $sender_kills | ${lost[sender]} | ${unloadable[sender]} | |"
+if [ "$daemon_runs" -gt 0 ]; then
+  for k in mapstored daemon; do
+    echo "| vilma-estimatord streaming, kill -9 of $([ $k = daemon ] && echo "the daemon" || echo vilma-mapstored), restart | ${d_runs[$k]} | ${d_lost[$k]} of ${d_acked[$k]} | ${d_unloadable[$k]} | missions ${d_missions[$k]}, acknowledged chunks the logger missed ${d_unseen[$k]}, audits failed ${d_audit_failed[$k]} |"
+  done
+fi
 if [ "$save_runs" -gt 0 ]; then
   echo "| kill -9 during \`kfh; save --overwrite\` (kills in the last $((command_ms - kill_from_ms)) ms of $command_ms ms; $before -> $after vertices) | $save_runs | - | $save_unloadable | previous generation $save_old, new generation $save_new, neither $save_lost |"
 fi
 echo "(details: $work/runs.log)"
 [ $((${lost[mapstored]} + ${lost[sender]} + ${unloadable[mapstored]} + ${unloadable[sender]})) -eq 0 ] && \
   [ $stream_failed -eq 0 ] && \
+  [ $((d_lost[mapstored] + d_lost[daemon] + d_unloadable[mapstored] + d_unloadable[daemon] + d_audit_failed[mapstored] + d_audit_failed[daemon])) -eq 0 ] && \
   [ $save_unloadable -eq 0 ] && [ $save_lost -eq 0 ]
