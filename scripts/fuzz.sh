@@ -6,11 +6,16 @@
 # crashes, timeouts (> 1 s), out-of-memory and leaks this run found. Corpora persist in the
 # cache folder, so campaigns continue where the last one stopped. Exit status 1 when anything
 # was found.
+# A timeout is replayed on its own at once: libFuzzer's timer is wall-clock time, so on a busy
+# machine a scheduling stall looks like a hang. An input that runs in less than a tenth of the
+# limit by itself is counted as a stall (column "stalls", kept in findings/stalls/) and the
+# harness goes on with the rest of its budget; one that is slow by itself is a finding.
 #
-# Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [HARNESS ...]
+# Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [--timeout S] [HARNESS ...]
 #   --minutes N   per harness (default 1)
 #   --runs N      per harness, instead of a time limit (e.g. 10000000)
 #   --jobs J      harnesses run in parallel (default 1)
+#   --timeout S   an input that runs longer than S seconds is a hang (default 1)
 #   HARNESS       fuzz_lcm_messages fuzz_mission_stream ... (default: all, see fuzz/CMakeLists.txt)
 #   VILMA_FUZZ_DIR   corpora and findings (default ~/.cache/vilma/fuzz)
 # A finding is saved as VILMA_FUZZ_DIR/<harness>/findings/{crash,timeout,oom,leak}-<sha1>;
@@ -24,13 +29,15 @@ work_dir=${VILMA_FUZZ_DIR:-$HOME/.cache/vilma/fuzz}
 minutes=1
 runs=""
 jobs=1
+timeout_s=1
 harnesses=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --minutes) minutes=$2; shift 2 ;;
     --runs) runs=$2; shift 2 ;;
     --jobs) jobs=$2; shift 2 ;;
-    -h|--help) sed -n '2,18p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --timeout) timeout_s=$2; shift 2 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
@@ -38,6 +45,7 @@ done
 [[ "$minutes" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "fuzz.sh: --minutes: expected a number" >&2; exit 2; }
 [ -z "$runs" ] || [[ "$runs" =~ ^[0-9]+$ ]] || { echo "fuzz.sh: --runs: expected an integer" >&2; exit 2; }
 [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --jobs: expected an integer >= 1" >&2; exit 2; }
+[[ "$timeout_s" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --timeout: expected whole seconds >= 1" >&2; exit 2; }
 command -v clang++ > /dev/null || { echo "fuzz.sh: clang++ missing (apt-get install clang libfuzzer-14-dev)" >&2; exit 1; }
 
 all=$(sed -n '/^set(VILMA_FUZZ_HARNESSES/,/)/p' "$repo_dir/fuzz/CMakeLists.txt" | grep -o 'fuzz_[a-z_]*')
@@ -68,32 +76,64 @@ run_one() {
     { echo "fuzz.sh: $h could not write its seeds" >&2; return 1; }
   local regressions=()
   [ -d "$repo_dir/fuzz/regressions/$h" ] && regressions=("$repo_dir/fuzz/regressions/$h")
-  local limit=(-max_total_time=$(awk "BEGIN { printf \"%d\", $minutes * 60 }"))
-  [ -n "$runs" ] && limit=(-runs="$runs")
+  local budget_s=$(awk "BEGIN { printf \"%d\", $minutes * 60 }")
   local start=$(date +%s)
   touch "$dir/run-start"  # findings newer than this are this run's
-  # -timeout=1: an input that takes more than 1 s is a hang; -rss_limit_mb: a decoder must not
-  # allocate what a field claims before checking it against the input's size.
-  set +e
-  "$build_dir/fuzz/$h" "${limit[@]}" -timeout=1 -rss_limit_mb=2048 -print_final_stats=1 \
-    -artifact_prefix="$dir/findings/" "$dir/corpus" "$dir/seeds" "${regressions[@]}" \
-    > "$dir/last-run.log" 2>&1
-  local status=$?
-  set -e
+  mkdir -p "$dir/findings/stalls"
+  local execs=0 rate_sum=0 rate_n=0 stalls=0 status=0
+  # Each pass fuzzes with what is left of the budget; a pass that ends on a timeout which does
+  # not reproduce (a stall of a busy machine) is followed by another.
+  while :; do
+    local limit
+    if [ -n "$runs" ]; then
+      limit=(-runs=$(( runs - execs )))
+    else
+      limit=(-max_total_time=$(( budget_s - ($(date +%s) - start) )))
+    fi
+    touch "$dir/pass-start"
+    # -timeout: an input that takes longer is a hang; -rss_limit_mb: a decoder must not
+    # allocate what a field claims before checking it against the input's size.
+    set +e
+    "$build_dir/fuzz/$h" "${limit[@]}" -timeout="$timeout_s" -rss_limit_mb=2048 \
+      -print_final_stats=1 -artifact_prefix="$dir/findings/" "$dir/corpus" "$dir/seeds" \
+      "${regressions[@]}" > "$dir/last-run.log" 2>&1
+    status=$?
+    set -e
+    local pass_execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
+    local pass_rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
+    execs=$(( execs + ${pass_execs:-0} ))
+    [ -n "$pass_rate" ] && { rate_sum=$(( rate_sum + pass_rate )); rate_n=$(( rate_n + 1 )); }
+    [ $status -eq 0 ] && break
+    # Only a timeout (and nothing else) may be a stall.
+    local new=$(find "$dir/findings" -maxdepth 1 -type f -newer "$dir/pass-start")
+    [ -n "$new" ] && [ -z "$(grep -v '/timeout-' <<< "$new")" ] || break
+    local slow=0 f
+    for f in $new; do
+      local ms=$("$build_dir/fuzz/$h" -runs=3 "$f" 2>&1 | grep -o 'in [0-9]* ms' | grep -o '[0-9]*' | sort -n | tail -1)
+      if [ -n "$ms" ] && [ "$ms" -lt $(( timeout_s * 100 )) ]; then
+        mv "$f" "$dir/findings/stalls/"
+        stalls=$(( stalls + 1 ))
+      else
+        slow=1
+      fi
+    done
+    [ $slow -eq 0 ] || break
+    if [ -n "$runs" ]; then [ $execs -lt $runs ] || { status=0; break; }
+    else [ $(( $(date +%s) - start )) -lt $budget_s ] || { status=0; break; }; fi
+  done
   local seconds=$(( $(date +%s) - start ))
-  local execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
-  local rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
-  count() { find "$dir/findings" -name "$1-*" -newer "$dir/run-start" 2> /dev/null | wc -l; }
-  printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "${execs:-?}" "${rate:-?}" \
+  local rate=$([ $rate_n -gt 0 ] && echo $(( rate_sum / rate_n )) || echo "?")
+  count() { find "$dir/findings" -maxdepth 1 -name "$1-*" -newer "$dir/run-start" 2> /dev/null | wc -l; }
+  printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "$execs" "$rate" \
     "$(ls "$dir/corpus" | wc -l)" "$(count crash)" "$(count timeout)" "$(count oom)" \
-    "$(count leak)" "$([ $status -eq 0 ] && echo ok || echo "FOUND (exit $status, $seconds s): $dir/last-run.log")"
+    "$(count leak)" "$stalls" "$([ $status -eq 0 ] && echo ok || echo "FOUND (exit $status, $seconds s): $dir/last-run.log")"
 }
 export -f run_one
-export build_dir work_dir minutes runs repo_dir
+export build_dir work_dir minutes runs repo_dir timeout_s
 
 mkdir -p "$work_dir"
-echo "| harness | executions | exec/s | corpus | crashes | timeouts | oom | leaks | result |"
-echo "|---|---:|---:|---:|---:|---:|---:|---:|---|"
+echo "| harness | executions | exec/s | corpus | crashes | timeouts | oom | leaks | stalls | result |"
+echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"
 printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one {}' | sort > "$work_dir/last-table.txt" || true
 cat "$work_dir/last-table.txt"
 ! grep -q FOUND "$work_dir/last-table.txt"
