@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "fuzz_util.h"
-#include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/mapstore/checksum.h"
 #include "vilma/mapstore/stream/synthetic_mission.h"
 
@@ -27,7 +27,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
         vilma::mapstore::ApplyDeltas(vilma::mapstore::MakeSyntheticMissionDeltas(mission));
     vilma::localizer::LocalizationMapOptions options;
     options.min_observations = 1;  // the synthetic mission's landmarks have one observer each
-    vilma::localizer::SaveLocalizationMap(vilma::localizer::BuildLocalizationMap(vimap, options),
+    vilma::localizer::SaveLocalizationMap(vilma::mapping::BuildLocalizationMap(vimap, options),
                                           path.string());
     std::string bytes = vilma::fuzz::ReadText(path);
     bytes.resize(bytes.size() >= 4 ? bytes.size() - 4 : 0);

@@ -10,7 +10,7 @@
 
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
-#include "vilma/localizer/kitti_localization.h"
+#include "vilma/eval/localization/kitti_localization.h"
 #include "vilma/mapping/dense/dense_evaluation.h"
 #include "vilma/mapping/dense/mesh_render.h"
 #include "vilma/mapping/dense/stereo_depth.h"
@@ -130,7 +130,7 @@ int RunDenseKittiCommand(const std::vector<std::string>& args, std::ostream& out
                          " is not one)");
       }
     }
-    const localizer::KittiSequence sequence = localizer::LoadKittiSequence(directory);
+    const eval::KittiSequence sequence = eval::LoadKittiSequence(directory);
     // Rectified already: a pinhole pair with the right camera at +B along x.
     const Transformation T_L_R(Eigen::Quaterniond::Identity(), Eigen::Vector3d(sequence.baseline_m, 0, 0));
     const mapping::StereoRectification rectification =

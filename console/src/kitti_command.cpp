@@ -3,7 +3,7 @@
 #include <exception>
 
 #include "vilma/core/error.h"
-#include "vilma/localizer/kitti_localization.h"
+#include "vilma/eval/localization/kitti_localization.h"
 
 namespace vilma::console {
 namespace {
@@ -64,20 +64,20 @@ int RunKittiCommand(const std::vector<std::string>& args, std::ostream& out, std
     if (indoor && !features_path.empty()) {
       throw UsageError("--features and --indoor-features exclude each other");
     }
-    localizer::KittiLocalizationOptions options;
+    eval::KittiLocalizationOptions options;
     if (!config_path.empty()) options.localizer = localizer::LoadLocalizerOptions(config_path);
     if (!features_path.empty()) {
       options.features = localizer::LoadKeyframeFeatureOptions(features_path);
     } else if (indoor) {
       options.features = localizer::KeyframeFeatureOptions();
     }
-    const localizer::KittiSequence sequence = localizer::LoadKittiSequence(directory);
+    const eval::KittiSequence sequence = eval::LoadKittiSequence(directory);
     out << "KITTI " << directory << ": " << sequence.size() << " frames, "
         << sequence.camera.width() << "x" << sequence.camera.height() << ", fx "
         << sequence.camera.fx() << " px, baseline " << sequence.baseline_m << " m\n";
-    const localizer::KittiLocalizationReport report =
-        localizer::EvaluateKittiLocalization(sequence, options);
-    localizer::WriteKittiReport(out, report, options);
+    const eval::KittiLocalizationReport report =
+        eval::EvaluateKittiLocalization(sequence, options);
+    eval::WriteKittiReport(out, report, options);
     return kExitOk;
   } catch (const UsageError& e) {
     err << "vilma localize-kitti: " << e.what() << "\n\n";

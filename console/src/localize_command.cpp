@@ -19,6 +19,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
 #include "vilma/core/timing.h"
+#include "vilma/eval/alignment_json.h"
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
 

@@ -10,7 +10,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/core/timing.h"
-#include "vilma/localizer/localization_map_file.h"
+#include "vilma/mapping/locmap/localization_map_file.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/vi_map.h"
 
@@ -104,8 +104,8 @@ int RunBuild(const std::vector<std::string>& args, std::ostream& out) {
       if (vimap.landmark(l).quality == mapstore::LandmarkQuality::kGood) ++landmarks_good;
     }
   }
-  const localizer::LocalizationMapFileReport r =
-      localizer::BuildAndSaveLocalizationMap(vimap, options, vimap_dir, out_path);
+  const mapping::LocalizationMapFileReport r =
+      mapping::BuildAndSaveLocalizationMap(vimap, options, vimap_dir, out_path);
   const std::size_t missions = vimap.mission_ids().size();
 
   out << std::fixed << std::setprecision(1) << "vilma locmap build: " << vimap_dir << " -> "
@@ -188,8 +188,8 @@ std::shared_ptr<localizer::LocalizationMap> LoadOrBuildLocalizationMap(
   d << std::fixed << std::setprecision(0);
   if (fs::is_directory(path, ec)) {
     const mapstore::VIMap vimap = mapstore::LoadMap(path);
-    localizer::LocalizationMapReport report;
-    *map = localizer::BuildLocalizationMap(vimap, options, &report);
+    mapping::LocalizationMapReport report;
+    *map = mapping::BuildLocalizationMap(vimap, options, &report);
     d << "VI-map folder, " << vimap.mission_ids().size()
       << (vimap.mission_ids().size() == 1 ? " mission" : " missions") << " (" << report.missions_used
       << " in the common frame G), summary built in "

@@ -1,19 +1,33 @@
 #include "vilma/localizer/localization_map.h"
 
+#include <algorithm>
 #include <cstring>
 #include <fstream>
 #include <iterator>
 #include <sstream>
-#include <unordered_map>
+#include <zlib.h>
 
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
-#include "vilma/mapstore/checksum.h"
 
 namespace vilma::localizer {
 namespace {
 
 constexpr char kMagic[8] = {'V', 'L', 'O', 'C', 'M', 'A', 'P', '1'};
+
+// CRC-32 (IEEE 802.3 polynomial, reflected, initial and final XOR 0xFFFFFFFF: zlib's crc32,
+// the same checksum as the VI-map's files) of `size` bytes.
+uint32_t Crc32(const void* data, std::size_t size) {
+  uLong crc = crc32(0L, Z_NULL, 0);
+  const auto* bytes = static_cast<const Bytef*>(data);
+  while (size > 0) {  // zlib takes uInt lengths
+    const uInt n = static_cast<uInt>(std::min<std::size_t>(size, 1u << 30));
+    crc = crc32(crc, bytes, n);
+    bytes += n;
+    size -= n;
+  }
+  return static_cast<uint32_t>(crc);
+}
 
 class Writer {
  public:
@@ -57,6 +71,12 @@ class Reader {
     // memcpy from/to a null pointer is undefined even for 0 bytes (found by fuzz_vlocmap).
     if (n > 0) std::memcpy(static_cast<void*>(v.data()), bytes_.data() + pos_, n * sizeof(T));
     pos_ += n * sizeof(T);
+    return v;
+  }
+  template <typename T>
+  T Peek(const char* field) {
+    const T v = Pod<T>(field);
+    pos_ -= sizeof(T);
     return v;
   }
   void Raw(const char* field, void* out, std::size_t n) {
@@ -113,91 +133,16 @@ std::string LocalizationMap::Validate() const {
   for (const Eigen::Vector3d& p : p_G) {
     if (!p.allFinite()) return "p_G: expected finite positions";
   }
-  return "";
-}
-
-std::vector<mapstore::MissionId> MissionsInCommonFrame(const mapstore::VIMap& map) {
-  std::vector<mapstore::MissionId> anchored;
-  for (const mapstore::MissionId& id : map.mission_ids()) {
-    if (map.mission(id).baseframe_known) anchored.push_back(id);
+  if (!p_G_covariance.empty() && p_G_covariance.size() != n) {
+    return "p_G_covariance: expected none or one per landmark";
   }
-  if (!anchored.empty()) return anchored;
-  if (map.mission_ids().empty()) return {};
-  return {map.mission_ids().front()};
-}
-
-LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
-                                     const LocalizationMapOptions& options,
-                                     LocalizationMapReport* report) {
-  const std::vector<mapstore::MissionId> missions = MissionsInCommonFrame(map);
-  if (report != nullptr) {
-    report->missions_used = static_cast<int>(missions.size());
-    report->missions_skipped = static_cast<int>(map.mission_ids().size() - missions.size());
-  }
-  return BuildLocalizationMapOfMissions(map, missions, options);
-}
-
-LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
-                                               const std::vector<mapstore::MissionId>& missions,
-                                               const LocalizationMapOptions& options) {
-  const std::string error = options.Validate();
-  if (!error.empty()) throw InputError(FormatInputError("LocalizationMapOptions", "", error));
-  LocalizationMap out;
-  out.observer_begin.push_back(0);
-  std::unordered_map<mapstore::VertexId, uint32_t, mapstore::IdHash> observer_of;
-  bool bytes_known = false;
-  for (const mapstore::MissionId& mission_id : missions) {
-    for (const mapstore::LandmarkId& landmark_id : map.landmark_ids(mission_id)) {
-      const mapstore::Landmark& landmark = map.landmark(landmark_id);
-      if (landmark.quality != mapstore::LandmarkQuality::kGood) continue;
-      // Observations whose vertex, frame and keypoint exist (after loop closure some may
-      // point into missions that are not loaded).
-      std::vector<const mapstore::LandmarkObservation*> valid;
-      for (const mapstore::LandmarkObservation& obs : landmark.observations) {
-        if (!map.HasVertex(obs.vertex_id)) continue;
-        const mapstore::Vertex& v = map.vertex(obs.vertex_id);
-        if (obs.camera >= v.frames.size() || obs.keypoint >= v.frames[obs.camera].size()) continue;
-        const mapstore::VisualFrame& frame = v.frames[obs.camera];
-        if (frame.descriptors.size() < (obs.keypoint + 1) * std::size_t{frame.descriptor_size_bytes}) {
-          continue;
-        }
-        if (!bytes_known) {
-          out.descriptor_bytes = frame.descriptor_size_bytes;
-          bytes_known = true;
-        }
-        if (frame.descriptor_size_bytes != out.descriptor_bytes) continue;
-        valid.push_back(&obs);
-      }
-      if (static_cast<int>(valid.size()) < options.min_observations || valid.empty()) continue;
-      const uint32_t l = static_cast<uint32_t>(out.p_G.size());
-      out.landmark_ids.push_back(landmark_id);
-      out.p_G.push_back(map.LandmarkPosition_G(landmark_id));
-      const std::size_t first_observer = out.observer_index.size();
-      for (const mapstore::LandmarkObservation* obs : valid) {
-        auto [it, inserted] =
-            observer_of.emplace(obs->vertex_id, static_cast<uint32_t>(out.observers.size()));
-        if (inserted) out.observers.push_back(obs->vertex_id);
-        bool seen = false;
-        for (std::size_t i = first_observer; i < out.observer_index.size(); ++i) {
-          seen |= out.observer_index[i] == it->second;
-        }
-        if (!seen) out.observer_index.push_back(it->second);
-      }
-      out.observer_begin.push_back(static_cast<uint32_t>(out.observer_index.size()));
-      // Evenly spread subset: indices round(i * (n - 1) / (m - 1)).
-      const std::size_t n = valid.size();
-      const std::size_t m =
-          std::min(n, static_cast<std::size_t>(options.max_descriptors_per_landmark));
-      for (std::size_t i = 0; i < m; ++i) {
-        const std::size_t k = m == 1 ? 0 : (i * (n - 1) + (m - 1) / 2) / (m - 1);
-        const mapstore::LandmarkObservation& obs = *valid[k];
-        const uint8_t* d = map.vertex(obs.vertex_id).frames[obs.camera].descriptor(obs.keypoint);
-        out.descriptors.insert(out.descriptors.end(), d, d + out.descriptor_bytes);
-        out.descriptor_landmark.push_back(l);
-      }
+  for (const Eigen::Matrix3f& c : p_G_covariance) {
+    if (!c.allFinite() || (c - c.transpose()).cwiseAbs().maxCoeff() > 1e-6f * c.cwiseAbs().maxCoeff() ||
+        c.diagonal().minCoeff() < 0.0f) {
+      return "p_G_covariance: expected finite symmetric matrices with a non-negative diagonal";
     }
   }
-  return out;
+  return "";
 }
 
 void SaveLocalizationMap(const LocalizationMap& map, const std::string& path) {
@@ -213,6 +158,7 @@ void SaveLocalizationMap(const LocalizationMap& map, const std::string& path) {
   w.Pod(static_cast<uint64_t>(map.observer_index.size()));
   w.Array(map.landmark_ids);
   w.Array(map.p_G);
+  w.Array(map.p_G_covariance);
   w.Array(map.observer_begin);
   w.Array(map.observer_index);
   w.Array(map.observers);
@@ -222,7 +168,7 @@ void SaveLocalizationMap(const LocalizationMap& map, const std::string& path) {
   w.Pod(static_cast<uint32_t>(map.projection.cols()));
   w.bytes().append(reinterpret_cast<const char*>(map.projection.data()),
                    sizeof(float) * map.projection.size());
-  const uint32_t crc = mapstore::Crc32(w.bytes());
+  const uint32_t crc = Crc32(w.bytes().data(), w.bytes().size());
   w.Pod(crc);
   WriteFileAtomically(path, w.bytes());
 }
@@ -237,13 +183,13 @@ LocalizationMap LoadLocalizationMap(const std::string& path) {
   Reader r(bytes, bytes.size() - 4, path);
   r.Pod<uint64_t>("magic");
   const uint32_t version = r.Pod<uint32_t>("version");
-  if (version != LocalizationMap::kFormatVersion) {
-    r.Fail("version", "expected " + std::to_string(LocalizationMap::kFormatVersion) +
+  if (version != 1 && version != LocalizationMap::kFormatVersion) {
+    r.Fail("version", "expected 1 or " + std::to_string(LocalizationMap::kFormatVersion) +
                           ", found " + std::to_string(version));
   }
   uint32_t stored_crc;
   std::memcpy(&stored_crc, bytes.data() + bytes.size() - 4, 4);
-  if (mapstore::Crc32(bytes.data(), bytes.size() - 4) != stored_crc) {
+  if (Crc32(bytes.data(), bytes.size() - 4) != stored_crc) {
     r.Fail("crc32", "expected the checksum to match (file is corrupt or truncated)");
   }
   LocalizationMap map;
@@ -255,11 +201,17 @@ LocalizationMap LoadLocalizationMap(const std::string& path) {
   const uint64_t n_descriptors = r.Pod<uint64_t>("num_descriptors");
   const uint64_t n_observers = r.Pod<uint64_t>("num_observers");
   const uint64_t n_observer_index = r.Pod<uint64_t>("num_observer_index");
-  map.landmark_ids = r.Array<mapstore::LandmarkId>("landmark_ids", n_landmarks);
+  map.landmark_ids = r.Array<MapObjectId>("landmark_ids", n_landmarks);
   map.p_G = r.Array<Eigen::Vector3d>("p_G", n_landmarks);
+  if (version >= 2) {
+    // None (unknown) or one per landmark: peek at the count.
+    const uint64_t n_covariances = r.Peek<uint64_t>("p_G_covariance");
+    map.p_G_covariance = r.Array<Eigen::Matrix3f>(
+        "p_G_covariance", n_covariances == 0 ? uint64_t{0} : n_landmarks);
+  }
   map.observer_begin = r.Array<uint32_t>("observer_begin", n_landmarks + 1);
   map.observer_index = r.Array<uint32_t>("observer_index", n_observer_index);
-  map.observers = r.Array<mapstore::VertexId>("observers", n_observers);
+  map.observers = r.Array<MapObjectId>("observers", n_observers);
   map.descriptor_landmark = r.Array<uint32_t>("descriptor_landmark", n_descriptors);
   map.descriptors =
       r.Array<uint8_t>("descriptors", n_descriptors * uint64_t{map.descriptor_bytes});

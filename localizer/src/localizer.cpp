@@ -124,6 +124,7 @@ LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::
     Read(n, "min_hull_fraction", &a.min_hull_fraction);
     Read(n, "max_position_sigma_m", &a.max_position_sigma_m);
     Read(n, "max_rotation_sigma_deg", &a.max_rotation_sigma_deg);
+    Read(n, "landmark_uncertainty", &a.landmark_uncertainty);
     Read(n, "rival_check", &a.rival_check);
     Read(n, "rival_exclusion_factor", &a.rival_exclusion_factor);
     Read(n, "max_rival_ratio", &a.max_rival_ratio);
@@ -303,9 +304,14 @@ LocalizationResult Localizer::Localize(const Camera& camera, const Transformatio
   std::vector<Eigen::Vector3d> p_G;
   uv.reserve(result.matches.size());
   p_G.reserve(result.matches.size());
+  // The matched landmarks' covariances when the map has them and the gates use them.
+  std::vector<Eigen::Matrix3d> p_G_covariance;
+  const bool with_covariance =
+      options_.acceptance.landmark_uncertainty && !map_->p_G_covariance.empty();
   for (const Match2D3D& m : result.matches) {
     uv.push_back(keypoints[m.keypoint]);
     p_G.push_back(map_->p_G[m.landmark]);
+    if (with_covariance) p_G_covariance.push_back(map_->p_G_covariance[m.landmark].cast<double>());
   }
   const PoseResult pose = EstimateCameraPose(camera, uv, p_G, options_.ransac);
   result.ransac_iterations = pose.ransac_iterations;
@@ -319,7 +325,7 @@ LocalizationResult Localizer::Localize(const Camera& camera, const Transformatio
   // A model: refined with all its inliers and gated (pose_acceptance.h). The pose and its
   // measurements are kept in the result also when a gate rejects it, for diagnosis.
   const AcceptedPose accepted =
-      AcceptPose(camera, uv, p_G, pose, options_.ransac, options_.acceptance);
+      AcceptPose(camera, uv, p_G, pose, options_.ransac, options_.acceptance, p_G_covariance);
   result.pose_ms = MsSince(t0);
   result.pose_cpu_ms = ThreadCpuMs() - c0;
   switch (accepted.verdict) {

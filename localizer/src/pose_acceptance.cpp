@@ -122,10 +122,12 @@ const char* PoseVerdictName(PoseVerdict verdict) {
 
 bool ReprojectionResidual(const Camera& camera, const Transformation& T_G_C,
                           const Eigen::Vector3d& p_G, const Eigen::Vector2d& uv,
-                          Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 6>* d_e_d_xi) {
+                          Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 6>* d_e_d_xi,
+                          Eigen::Matrix<double, 2, 3>* d_e_d_p_G) {
   // Right perturbation T_G_C Exp(xi): p_C = Exp(-xi) T_C_G p_G ~= p_C - rho - phi x p_C, so
-  // d p_C / d rho = -I and d p_C / d phi = [p_C]x (as RefineCameraPose).
-  const Eigen::Vector3d p_C = T_G_C.inverse() * p_G;
+  // d p_C / d rho = -I and d p_C / d phi = [p_C]x (as RefineCameraPose); d p_C / d p_G = R_C_G.
+  const Transformation T_C_G = T_G_C.inverse();
+  const Eigen::Vector3d p_C = T_C_G * p_G;
   if (p_C.z() <= 1e-6) return false;
   Eigen::Vector2d projected;
   Eigen::Matrix<double, 2, 3> J_uv_p;
@@ -137,32 +139,87 @@ bool ReprojectionResidual(const Camera& camera, const Transformation& T_G_C,
     J_p_xi.rightCols<3>() = Skew(p_C);
     *d_e_d_xi = J_uv_p * J_p_xi;
   }
+  if (d_e_d_p_G != nullptr) *d_e_d_p_G = J_uv_p * T_C_G.rotation().toRotationMatrix();
   return true;
+}
+
+Eigen::Matrix2d ResidualCovariance(const Eigen::Matrix<double, 2, 3>& d_e_d_p_G,
+                                   const Eigen::Matrix3d& covariance_G, double sigma_px) {
+  return sigma_px * sigma_px * Eigen::Matrix2d::Identity() +
+         d_e_d_p_G * covariance_G * d_e_d_p_G.transpose();
+}
+
+void RefineCameraPoseWeighted(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
+                              const std::vector<Eigen::Vector3d>& p_G,
+                              const std::vector<Eigen::Matrix3d>& p_G_covariance,
+                              const std::vector<int>& indices, int iterations, double sigma_px,
+                              Transformation* T_G_C) {
+  if (p_G_covariance.empty()) {
+    RefineCameraPose(camera, keypoints, p_G, indices, iterations, sigma_px, T_G_C);
+    return;
+  }
+  // Normal equations (sum J^T W J) dx = -sum J^T W e with W = Sigma_r^-1 at the current pose
+  // (iteratively reweighted: Sigma_r depends on the pose through J_l), x <- x Exp(dx).
+  for (int it = 0; it < iterations; ++it) {
+    Matrix6d H = Matrix6d::Zero();
+    Vector6d b = Vector6d::Zero();
+    for (int i : indices) {
+      Eigen::Vector2d e;
+      Eigen::Matrix<double, 2, 6> J;
+      Eigen::Matrix<double, 2, 3> J_l;
+      if (!ReprojectionResidual(camera, *T_G_C, p_G[i], keypoints[i], &e, &J, &J_l)) continue;
+      const Eigen::Matrix2d W =
+          ResidualCovariance(J_l, p_G_covariance[static_cast<std::size_t>(i)], sigma_px).inverse();
+      H += J.transpose() * W * J;
+      b += J.transpose() * W * e;
+    }
+    const Eigen::LDLT<Matrix6d> ldlt(H);
+    if (ldlt.info() != Eigen::Success) return;
+    const Vector6d dx = -ldlt.solve(b);
+    if (!dx.allFinite()) return;
+    *T_G_C = *T_G_C * Transformation::Exp(dx);
+    if (dx.norm() < 1e-10) return;
+  }
 }
 
 bool PoseCovariance(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
                     const std::vector<Eigen::Vector3d>& p_G, const std::vector<int>& indices,
                     const Transformation& T_G_C, double sigma_px, Matrix6d* covariance_C,
-                    double* residual_sigma_px) {
+                    double* residual_sigma_px, const std::vector<Eigen::Matrix3d>& p_G_covariance) {
   covariance_C->setZero();
-  Matrix6d H = Matrix6d::Zero();
-  double sum2 = 0.0;
+  const bool weighted = !p_G_covariance.empty();
+  Matrix6d H = Matrix6d::Zero();  // sum J^T J, or sum J^T Sigma_r^-1 J when weighted
+  double sum2 = 0.0;              // sum |e|^2
+  double chi2 = 0.0;              // sum e^T Sigma_r^-1 e (weighted)
   int n = 0;
   for (int i : indices) {
     Eigen::Vector2d e;
     Eigen::Matrix<double, 2, 6> J;
-    if (!ReprojectionResidual(camera, T_G_C, p_G[i], keypoints[i], &e, &J)) continue;
-    H += J.transpose() * J;
+    Eigen::Matrix<double, 2, 3> J_l;
+    if (!ReprojectionResidual(camera, T_G_C, p_G[i], keypoints[i], &e, &J, &J_l)) continue;
+    if (weighted) {
+      const Eigen::Matrix2d W =
+          ResidualCovariance(J_l, p_G_covariance[static_cast<std::size_t>(i)], sigma_px).inverse();
+      H += J.transpose() * W * J;
+      chi2 += e.dot(W * e);
+    } else {
+      H += J.transpose() * J;
+    }
     sum2 += e.squaredNorm();
     ++n;
   }
   if (n < 4) return false;
   // 2n residuals, 6 parameters: the unbiased residual variance per coordinate.
-  const double variance = sum2 / (2.0 * n - 6.0);
+  const double dof = 2.0 * n - 6.0;
+  const double variance = sum2 / dof;
   if (residual_sigma_px != nullptr) *residual_sigma_px = std::sqrt(variance);
   const Eigen::FullPivLU<Matrix6d> lu(H);
   if (!lu.isInvertible()) return false;
-  *covariance_C = std::max(variance, sigma_px * sigma_px) * lu.inverse();
+  // Unweighted: s^2 (J^T J)^-1. Weighted: the information already carries the noise; the
+  // a-posteriori variance factor chi^2 / dof (1 for a correct model) inflates it when the
+  // residuals are larger than the model says, never shrinks it.
+  *covariance_C = weighted ? std::max(1.0, chi2 / dof) * lu.inverse()
+                           : std::max(variance, sigma_px * sigma_px) * lu.inverse();
   return covariance_C->allFinite();
 }
 
@@ -182,7 +239,12 @@ void ImageSpread(const Camera& camera, const std::vector<Eigen::Vector2d>& point
 
 AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
                         const std::vector<Eigen::Vector3d>& p_G, const PoseResult& pose,
-                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options) {
+                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options,
+                        const std::vector<Eigen::Matrix3d>& p_G_covariance) {
+  const std::vector<Eigen::Matrix3d> exact;  // the landmarks taken as exact
+  const std::vector<Eigen::Matrix3d>& landmark_covariance =
+      options.landmark_uncertainty && p_G_covariance.size() == p_G.size() ? p_G_covariance
+                                                                         : exact;
   AcceptedPose out;
   PoseQuality& q = out.quality;
   q.matches = static_cast<int>(std::min(keypoints.size(), p_G.size()));
@@ -192,8 +254,8 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
   std::vector<double> errors = Errors(camera, keypoints, p_G, out.T_G_C);
   for (int round = 0; round < options.refine_rounds && out.inliers.size() >= 3; ++round) {
     Transformation T = out.T_G_C;
-    RefineCameraPose(camera, keypoints, p_G, out.inliers, std::max(1, ransac.refine_iterations),
-                     ransac.keypoint_sigma_px, &T);
+    RefineCameraPoseWeighted(camera, keypoints, p_G, landmark_covariance, out.inliers,
+                             std::max(1, ransac.refine_iterations), ransac.keypoint_sigma_px, &T);
     const std::vector<double> e = Errors(camera, keypoints, p_G, T);
     const std::vector<int> inliers = Below(e, ransac.threshold_px);
     ++q.refine_rounds;
@@ -218,7 +280,7 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
   out.rms_reprojection_px = out.inliers.empty() ? 0.0 : std::sqrt(sum2 / out.inliers.size());
   const bool have_covariance =
       PoseCovariance(camera, keypoints, p_G, out.inliers, out.T_G_C, ransac.keypoint_sigma_px,
-                     &out.covariance_C, &q.residual_sigma_px);
+                     &out.covariance_C, &q.residual_sigma_px, landmark_covariance);
   if (q.inliers < ransac.min_inliers) {
     out.verdict = PoseVerdict::kTooFewInliers;
     return out;

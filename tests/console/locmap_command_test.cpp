@@ -9,7 +9,7 @@
 #include <string>
 
 #include "mapstore/synthetic_map.h"
-#include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/localizer/localizer.h"
 #include "vilma/mapstore/map_io.h"
 
@@ -69,7 +69,7 @@ TEST_CASE("vilma locmap: help and usage errors") {
 TEST_CASE("vilma locmap: build stores the Localizer's projection, info reads it back") {
   const Scratch s("roundtrip");
   const mapstore::VIMap vimap = SaveSyntheticMap(s / "vimap");
-  const localizer::LocalizationMap expected = localizer::BuildLocalizationMap(vimap);
+  const localizer::LocalizationMap expected = mapping::BuildLocalizationMap(vimap);
   REQUIRE(expected.num_landmarks() > 20);
 
   std::string out, err;

@@ -15,6 +15,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
 #include "vilma/localizer/keyframe_features.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/mapping/map_builder.h"
 #include "test_skip.h"
 
@@ -112,6 +113,7 @@ TEST_CASE("localizer options: the shipped YAML parses to the defaults", "[locali
   CHECK(o.acceptance.min_hull_fraction == d.acceptance.min_hull_fraction);
   CHECK(o.acceptance.max_position_sigma_m == d.acceptance.max_position_sigma_m);
   CHECK(o.acceptance.max_rotation_sigma_deg == d.acceptance.max_rotation_sigma_deg);
+  CHECK(o.acceptance.landmark_uncertainty == d.acceptance.landmark_uncertainty);
   CHECK(o.acceptance.rival_check == d.acceptance.rival_check);
   CHECK(o.acceptance.rival_exclusion_factor == d.acceptance.rival_exclusion_factor);
   CHECK(o.acceptance.max_rival_ratio == d.acceptance.max_rival_ratio);
@@ -191,7 +193,7 @@ TEST_CASE("localizer: end to end on simulated room sessions (map from room-easy,
   const mapstore::VIMap vimap = BuildGroundTruthMap(map_set, map_seconds);
   const double map_build_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  auto loc_map = std::make_shared<LocalizationMap>(BuildLocalizationMap(vimap));
+  auto loc_map = std::make_shared<LocalizationMap>(mapping::BuildLocalizationMap(vimap));
   REQUIRE(loc_map->num_landmarks() > 100);
   // Round trip through the file, as the daemon would load it.
   const std::string path = (fs::temp_directory_path() / "vilma_loc_e2e.vlocmap").string();

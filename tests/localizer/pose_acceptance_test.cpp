@@ -1,6 +1,8 @@
 #include "vilma/localizer/pose_acceptance.h"
 
 #include <catch2/catch.hpp>
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <cmath>
 #include <random>
 
@@ -291,4 +293,179 @@ TEST_CASE("pose acceptance: options validate each field", "[localization]") {
              Catch::Contains("rival_min_position_m"));
   CHECK_THAT(bad([](auto& o) { o.rival_min_rotation_deg = -1.0; }),
              Catch::Contains("rival_min_rotation_deg"));
+}
+
+namespace {
+
+// KITTI's rectified left camera (no distortion).
+Camera KittiCamera() {
+  return Camera(1226, 370, Eigen::Vector4d(718.9, 718.9, 607.2, 185.2), DistortionModel::kNone,
+                Eigen::VectorXd());
+}
+
+// Covariance [m^2] of a point p_M triangulated by a rectified stereo pair whose left camera is
+// at T_G_M (right camera b along its x axis) under pixel noise sigma: sigma^2 (sum J^T J)^-1
+// over the two views, in G. Written out here, independently of the harness's helper.
+Eigen::Matrix3d StereoCovariance_G(const Camera& cam, const Transformation& T_G_M,
+                                   const Eigen::Vector3d& p_G, double b, double sigma) {
+  const Eigen::Vector3d p_M = T_G_M.inverse() * p_G;
+  Eigen::Matrix3d H = Eigen::Matrix3d::Zero();
+  for (const double x : {0.0, b}) {
+    const Eigen::Vector3d p = p_M - Eigen::Vector3d(x, 0, 0);
+    // Pinhole Jacobian d (fx X / Z + cx, fy Y / Z + cy) / d (X, Y, Z).
+    Eigen::Matrix<double, 2, 3> J;
+    J << cam.fx() / p.z(), 0, -cam.fx() * p.x() / (p.z() * p.z()), 0, cam.fy() / p.z(),
+        -cam.fy() * p.y() / (p.z() * p.z());
+    H += J.transpose() * J;
+  }
+  const Eigen::Matrix3d R = T_G_M.rotation().toRotationMatrix();
+  return R * (sigma * sigma * H.inverse()) * R.transpose();
+}
+
+// A query camera kT_G_C and a map stereo camera 3 m behind and 1 m beside it (a map made from
+// elsewhere on the road): `near` landmarks at 5-10 m and `far` ones at 20-40 m, spread over
+// the image, each with its stereo covariance (stereo_sigma_px = 1: depth sigma 0.1-0.4 m near,
+// 1.5-6 m far).
+struct UncertainScene {
+  std::vector<Eigen::Vector3d> p_G;
+  std::vector<Eigen::Matrix3d> covariance_G;
+};
+
+UncertainScene MakeUncertainScene(const Camera& cam, int near, int far, double stereo_sigma_px,
+                                  uint64_t seed) {
+  const Transformation T_G_M = kT_G_C * Transformation(Eigen::Quaterniond::Identity(),
+                                                       Eigen::Vector3d(1.0, 0.0, -3.0));
+  std::mt19937_64 rng(seed);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  UncertainScene s;
+  for (int i = 0; i < near + far; ++i) {
+    const double z = i < near ? 5.0 + 5.0 * u(rng) : 20.0 + 20.0 * u(rng);
+    Eigen::Vector3d f;
+    REQUIRE(cam.Unproject(Eigen::Vector2d((0.05 + 0.9 * u(rng)) * cam.width(),
+                                          (0.05 + 0.9 * u(rng)) * cam.height()),
+                          &f));
+    const Eigen::Vector3d p_G = kT_G_C * (f / f.z() * z);
+    s.p_G.push_back(p_G);
+    s.covariance_G.push_back(StereoCovariance_G(cam, T_G_M, p_G, 0.54, stereo_sigma_px));
+  }
+  return s;
+}
+
+double LargestSigmaOf(const Eigen::Matrix3d& c) {
+  return std::sqrt(Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(c).eigenvalues().maxCoeff());
+}
+
+}  // namespace
+
+TEST_CASE("pose acceptance: landmark Jacobian and residual covariance", "[localization]") {
+  for (const Camera& cam : {EurocCamera(), KittiCamera()}) {
+    const Eigen::Vector3d p_G = kT_G_C * Eigen::Vector3d(0.4, -0.3, 3.0);
+    const Eigen::Vector2d uv(300.0, 200.0);
+    Eigen::Vector2d e;
+    Eigen::Matrix<double, 2, 3> J_l;
+    REQUIRE(ReprojectionResidual(cam, kT_G_C, p_G, uv, &e, nullptr, &J_l));
+    const double h = 1e-6;
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d d = Eigen::Vector3d::Unit(k) * h;
+      Eigen::Vector2d ep, em;
+      REQUIRE(ReprojectionResidual(cam, kT_G_C, p_G + d, uv, &ep, nullptr));
+      REQUIRE(ReprojectionResidual(cam, kT_G_C, p_G - d, uv, &em, nullptr));
+      const Eigen::Vector2d numeric = (ep - em) / (2 * h);
+      INFO("column " << k << ": analytic " << J_l.col(k).transpose() << ", numeric "
+                     << numeric.transpose());
+      CHECK((J_l.col(k) - numeric).norm() <= 1e-5 * std::max(1.0, numeric.norm()));
+    }
+    // Sigma_r = sigma^2 I + J_l Sigma_l J_l^T: a landmark uncertain only along the camera's
+    // viewing ray through it adds (almost) nothing, one uncertain across it adds its image.
+    const Eigen::Vector3d ray_G = kT_G_C.rotation() * (kT_G_C.inverse() * p_G).normalized();
+    const Eigen::Matrix2d along =
+        ResidualCovariance(J_l, 4.0 * ray_G * ray_G.transpose(), 1.5);
+    CHECK((along - 2.25 * Eigen::Matrix2d::Identity()).norm() <= 1e-6);
+    const Eigen::Matrix3d across = 0.01 * Eigen::Matrix3d::Identity();
+    CHECK((ResidualCovariance(J_l, across, 1.5) -
+           (2.25 * Eigen::Matrix2d::Identity() + J_l * across * J_l.transpose()))
+              .norm() <= 1e-9);
+  }
+}
+
+namespace {
+
+struct MonteCarloSigmas {
+  double mc_position = 0, mc_rotation = 0;                // largest sigma [m], [rad]
+  double predicted_position = 0, predicted_rotation = 0;  // PoseCovariance with Sigma_l
+  double exact_position = 0;                              // PoseCovariance without
+  Matrix6d empirical, predicted;
+};
+
+// Every trial draws landmark errors from their covariances and keypoint noise (1 px), refines
+// the pose from the truth with RefineCameraPoseWeighted and records xi = Log(T_true^-1 T).
+MonteCarloSigmas RunMonteCarlo(const Camera& cam, const UncertainScene& scene, int trials) {
+  const std::size_t n = scene.p_G.size();
+  std::vector<int> all(n);
+  std::vector<Eigen::Vector2d> uv_true(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    all[i] = static_cast<int>(i);
+    REQUIRE(cam.Project(kT_G_C.inverse() * scene.p_G[i], &uv_true[i]) ==
+            Camera::ProjectionResult::kValid);
+  }
+  MonteCarloSigmas out;
+  Matrix6d exact_landmarks;
+  REQUIRE(PoseCovariance(cam, uv_true, scene.p_G, all, kT_G_C, 1.0, &out.predicted, nullptr,
+                         scene.covariance_G));
+  REQUIRE(PoseCovariance(cam, uv_true, scene.p_G, all, kT_G_C, 1.0, &exact_landmarks, nullptr));
+  std::vector<Eigen::Matrix3d> chol(n);
+  for (std::size_t i = 0; i < n; ++i) chol[i] = scene.covariance_G[i].llt().matrixL();
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> g(0.0, 1.0);
+  out.empirical.setZero();
+  for (int t = 0; t < trials; ++t) {
+    std::vector<Eigen::Vector3d> p_G(n);
+    std::vector<Eigen::Vector2d> uv(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      p_G[i] = scene.p_G[i] + chol[i] * Eigen::Vector3d(g(rng), g(rng), g(rng));
+      uv[i] = uv_true[i] + Eigen::Vector2d(g(rng), g(rng));
+    }
+    Transformation T = kT_G_C;
+    RefineCameraPoseWeighted(cam, uv, p_G, scene.covariance_G, all, 10, 1.0, &T);
+    const Vector6d xi = (kT_G_C.inverse() * T).Log();
+    out.empirical += xi * xi.transpose() / trials;
+  }
+  out.mc_position = LargestSigmaOf(out.empirical.topLeftCorner<3, 3>());
+  out.mc_rotation = LargestSigmaOf(out.empirical.bottomRightCorner<3, 3>());
+  out.predicted_position = LargestSigmaOf(out.predicted.topLeftCorner<3, 3>());
+  out.predicted_rotation = LargestSigmaOf(out.predicted.bottomRightCorner<3, 3>());
+  out.exact_position = LargestSigmaOf(exact_landmarks.topLeftCorner<3, 3>());
+  return out;
+}
+
+}  // namespace
+
+TEST_CASE("pose acceptance: the covariance with landmark uncertainty matches a Monte-Carlo run",
+          "[localization]") {
+  // The empirical covariance of the refined pose must match PoseCovariance's first-order
+  // prediction; the prediction without the landmark term (exact landmarks) is far too small.
+  const Camera cam = KittiCamera();
+  // Stereo keypoint noise 0.5 px: far depths uncertain by up to 3 m (7 % of Z).
+  const MonteCarloSigmas m = RunMonteCarlo(cam, MakeUncertainScene(cam, 15, 45, 0.5, 11), 2000);
+  INFO("position sigma: Monte-Carlo " << m.mc_position << " m, predicted "
+                                      << m.predicted_position << " m, exact landmarks "
+                                      << m.exact_position << " m");
+  INFO("rotation sigma: Monte-Carlo " << m.mc_rotation << " rad, predicted "
+                                      << m.predicted_rotation << " rad");
+  // 2000 trials: a standard deviation is estimated within ~1.6 % (1 sigma).
+  CHECK(m.predicted_position == Approx(m.mc_position).epsilon(0.1));
+  CHECK(m.predicted_rotation == Approx(m.mc_rotation).epsilon(0.1));
+  for (int k = 0; k < 6; ++k) {
+    INFO("xi[" << k << "]");
+    CHECK(std::sqrt(m.predicted(k, k)) == Approx(std::sqrt(m.empirical(k, k))).epsilon(0.1));
+  }
+  CHECK(m.exact_position < 0.5 * m.mc_position);
+  // 1 px (far depths uncertain by up to 6 m, 15 % of Z): the first-order propagation
+  // underestimates (measured 0.030 against 0.041 m), still 6x closer than exact landmarks.
+  const MonteCarloSigmas w = RunMonteCarlo(cam, MakeUncertainScene(cam, 15, 45, 1.0, 11), 2000);
+  INFO("1 px: Monte-Carlo " << w.mc_position << " m, predicted " << w.predicted_position
+                            << " m, exact landmarks " << w.exact_position << " m");
+  CHECK(w.predicted_position > 0.6 * w.mc_position);
+  CHECK(w.predicted_position < 1.05 * w.mc_position);
+  CHECK(w.exact_position < 0.2 * w.mc_position);
 }

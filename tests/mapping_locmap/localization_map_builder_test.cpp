@@ -1,4 +1,4 @@
-#include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -10,6 +10,7 @@
 
 using namespace vilma;
 using namespace vilma::localizer;
+using namespace vilma::mapping;
 namespace fs = std::filesystem;
 
 namespace {
@@ -156,8 +157,8 @@ TEST_CASE("localization map: only missions in one common frame G", "[localizatio
   CHECK(loc.num_landmarks() == 4);  // 4 good landmarks of 8, of the first mission
   REQUIRE(MissionsInCommonFrame(map).size() == 1);
   CHECK(MissionsInCommonFrame(map).front() == map.mission_ids().front());
-  for (const mapstore::LandmarkId& id : loc.landmark_ids) {
-    CHECK(map.vertex(map.landmark(id).store_vertex_id).mission_id == map.mission_ids().front());
+  for (const MapObjectId& id : loc.landmark_ids) {
+    CHECK(map.vertex(map.landmark(ToVIMapId(id)).store_vertex_id).mission_id == map.mission_ids().front());
   }
 
   // Anchored missions share G: both anchored ones, the unanchored one skipped.
@@ -173,4 +174,31 @@ TEST_CASE("localization map: only missions in one common frame G", "[localizatio
   // mission 2 at (2, 0, 1) + (0, 0, 5).
   CHECK(loc.p_G[1].isApprox(Eigen::Vector3d(-3, 0, 1)));
   CHECK(loc.p_G[5].isApprox(Eigen::Vector3d(2, 0, 6)));
+}
+
+TEST_CASE("localization map: landmark covariances rotated into G, none when all are unknown",
+          "[localization]") {
+  mapstore::VIMap vimap = MakeMap(4);
+  // Without covariances (all zero): none stored, the localizer takes the landmarks as exact.
+  CHECK(BuildLocalizationMap(vimap).p_G_covariance.empty());
+  // A mission rotated 90 deg about z and a store vertex rotated 90 deg about x: a landmark
+  // uncertain along its store vertex's x (sigma 2 m) and y (sigma 0.1 m).
+  const mapstore::MissionId mission = vimap.mission_ids().front();
+  vimap.mission(mission).T_G_M = Transformation(
+      Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitZ())),
+      Eigen::Vector3d(10, 0, 0));
+  const mapstore::LandmarkId first = vimap.landmark_ids(mission).front();
+  mapstore::Landmark& l = vimap.landmark(first);
+  vimap.vertex(l.store_vertex_id).T_M_I =
+      Transformation(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())),
+                     Eigen::Vector3d::Zero());
+  l.covariance = Eigen::Vector3d(4.0, 0.01, 0.0).asDiagonal();
+  const LocalizationMap map = BuildLocalizationMap(vimap);
+  REQUIRE(map.Validate().empty());
+  REQUIRE(map.p_G_covariance.size() == map.num_landmarks());
+  // R_G_I = Rz(90) Rx(90): I's x is G's y, I's y is G's z.
+  const Eigen::Matrix3d expected = Eigen::Vector3d(0.0, 4.0, 0.01).asDiagonal();
+  CHECK((map.p_G_covariance[0].cast<double>() - expected).norm() <= 1e-6);
+  // The other landmarks (zero covariance) are stored as zero: exact.
+  for (std::size_t i = 1; i < map.num_landmarks(); ++i) CHECK(map.p_G_covariance[i].isZero());
 }

@@ -7,7 +7,7 @@
 
 #include "vilma/console/command_registry.h"
 #include "vilma/core/error.h"
-#include "vilma/localizer/localization_map_file.h"
+#include "vilma/mapping/locmap/localization_map_file.h"
 #include "vilma/localizer/localizer.h"
 #include "vilma/mapping/summarization/landmark_sparsification.h"
 #include "vilma/mapstore/compaction.h"
@@ -95,7 +95,7 @@ void Register(CommandRegistry* registry) {
                   o.localizer_config.empty() ? "built-in defaults" : o.localizer_config, "",
                   problem));
             }
-            const localizer::LocalizationMapFileReport r = localizer::BuildAndSaveLocalizationMap(
+            const mapping::LocalizationMapFileReport r = mapping::BuildAndSaveLocalizationMap(
                 c.map(), options, "map '" + c.map_key() + "'", o.summary_map_save_path);
             std::ostringstream s;
             s << std::fixed << std::setprecision(1) << "summary_map: " << o.summary_map_save_path

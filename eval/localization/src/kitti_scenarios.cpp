@@ -1,12 +1,15 @@
-#include "vilma/localizer/kitti_scenarios.h"
+#include "vilma/eval/localization/kitti_scenarios.h"
 
 #include <algorithm>
 #include <memory>
 #include <opencv2/imgcodecs.hpp>
 
 #include "vilma/core/error.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 
-namespace vilma::localizer {
+namespace vilma::eval {
+
+using namespace localizer;  // the harness is written in the localizer's types
 namespace {
 
 std::vector<int> Frames(int frames, int begin, int end, int step, int offset_mod = 0,
@@ -145,7 +148,7 @@ std::vector<AcceptanceQuery> RunKittiScenario(const KittiSequence& seq,
                                               const KittiScenario& scenario,
                                               const AcceptanceGates& gates) {
   const mapstore::VIMap vimap = BuildKittiFrameMap(seq, options, scenario.map_frames);
-  LocalizationMap map = BuildLocalizationMap(vimap, options.localizer.map);
+  LocalizationMap map = mapping::BuildLocalizationMap(vimap, options.localizer.map);
   if (scenario.min_landmark_distance_m > 0.0) {
     std::vector<Eigen::Vector3d> cameras;
     for (int k : scenario.map_frames) cameras.push_back(seq.T_W_C[k].translation());
@@ -191,4 +194,4 @@ std::vector<AcceptanceQuery> RunKittiScenario(const KittiSequence& seq,
   return out;
 }
 
-}  // namespace vilma::localizer
+}  // namespace vilma::eval

@@ -21,16 +21,17 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
-#include "vilma/localizer/acceptance_eval.h"
+#include "vilma/eval/localization/acceptance_eval.h"
 #include "vilma/localizer/feature_options.h"
 #include "vilma/localizer/keyframe_features.h"
-#include "vilma/localizer/kitti_scenarios.h"
-#include "vilma/localizer/localization_map_file.h"
+#include "vilma/eval/localization/kitti_scenarios.h"
+#include "vilma/localizer/localization_map.h"
 
 namespace {
 
 using namespace vilma;
 using namespace vilma::localizer;
+using namespace vilma::eval;
 namespace fs = std::filesystem;
 
 constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2;

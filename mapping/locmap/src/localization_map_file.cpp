@@ -1,4 +1,4 @@
-#include "vilma/localizer/localization_map_file.h"
+#include "vilma/mapping/locmap/localization_map_file.h"
 
 #include <chrono>
 #include <filesystem>
@@ -7,9 +7,13 @@
 #include "vilma/core/error.h"
 #include "vilma/core/timing.h"
 
-namespace vilma::localizer {
+namespace vilma::mapping {
+
+using localizer::LocalizationMap;
+using localizer::Localizer;
+
 LocalizationMapFileReport BuildAndSaveLocalizationMap(const mapstore::VIMap& vimap,
-                                                      const LocalizerOptions& options,
+                                                      const localizer::LocalizerOptions& options,
                                                       const std::string& source,
                                                       const std::string& path) {
   LocalizationMapFileReport report;
@@ -55,4 +59,4 @@ LocalizationMapFileReport BuildAndSaveLocalizationMap(const mapstore::VIMap& vim
   return report;
 }
 
-}  // namespace vilma::localizer
+}  // namespace vilma::mapping

@@ -6,7 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
-#include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 
 namespace vilma::mapping {
 
@@ -68,7 +68,7 @@ AnchoringSummary AnchorAllMissions(const AnchoringOptions& options, VIMap* map,
     return s;
   }
   auto db = std::make_shared<localizer::LocalizationMap>(
-      localizer::BuildLocalizationMapOfMissions(*map, known, options.localizer.map));
+      BuildLocalizationMapOfMissions(*map, known, options.localizer.map));
   if (db->num_landmarks() == 0) {
     throw std::invalid_argument("aam: the known missions have no good landmarks (run elq?)");
   }

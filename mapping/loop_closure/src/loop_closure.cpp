@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <unordered_map>
 
-#include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/localizer/pose_ransac.h"
 
 namespace vilma::mapping {
@@ -89,7 +89,7 @@ LoopClosureSummary CloseLoops(const LoopClosureOptions& options, VIMap* map,
     auto it = databases.find(group);
     if (it == databases.end()) {
       auto db = std::make_shared<localizer::LocalizationMap>(
-          localizer::BuildLocalizationMapOfMissions(*map, group, options.localizer.map));
+          BuildLocalizationMapOfMissions(*map, group, options.localizer.map));
       if (db->num_landmarks() == 0) {
         throw std::invalid_argument("mission " + m.Hex() +
                                     ": no good landmarks to close loops with (run elq?)");
@@ -142,7 +142,7 @@ LoopClosureSummary CloseLoops(const LoopClosureOptions& options, VIMap* map,
           bool old = false;
           for (uint32_t i = lmap.observer_begin[match.landmark];
                i < lmap.observer_begin[match.landmark + 1] && !old; ++i) {
-            const mapstore::Vertex& w = map->vertex(lmap.observers[lmap.observer_index[i]]);
+            const mapstore::Vertex& w = map->vertex(ToVIMapId(lmap.observers[lmap.observer_index[i]]));
             old = w.mission_id != m || std::llabs(w.t_ns - t_v) > gap_ns;
           }
           if (old) kept.push_back(match);
@@ -193,11 +193,11 @@ LoopClosureSummary CloseLoops(const LoopClosureOptions& options, VIMap* map,
           const localizer::Match2D3D& match = kept[static_cast<std::size_t>(inlier)];
           for (uint32_t i = lmap.observer_begin[match.landmark];
                i < lmap.observer_begin[match.landmark + 1]; ++i) {
-            const VertexId w = lmap.observers[lmap.observer_index[i]];
+            const VertexId w = ToVIMapId(lmap.observers[lmap.observer_index[i]]);
             const mapstore::Vertex& wv = map->vertex(w);
             if (wv.mission_id != m || std::llabs(wv.t_ns - t_v) > gap_ns) ++observer_votes[w];
           }
-          const LandmarkId L = Resolve(merged, lmap.landmark_ids[match.landmark]);
+          const LandmarkId L = Resolve(merged, ToVIMapId(lmap.landmark_ids[match.landmark]));
           if (!map->HasLandmark(L)) continue;
           const LandmarkId Q =
               map->vertex(v).frames[c].landmark_ids[static_cast<std::size_t>(match.keypoint)];

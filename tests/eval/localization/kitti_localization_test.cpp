@@ -1,4 +1,4 @@
-#include "vilma/localizer/kitti_localization.h"
+#include "vilma/eval/localization/kitti_localization.h"
 
 #include <sys/resource.h>
 
@@ -22,6 +22,7 @@
 
 using namespace vilma;
 using namespace vilma::localizer;
+using namespace vilma::eval;
 namespace fs = std::filesystem;
 
 namespace {
@@ -162,7 +163,7 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
   auto map = std::make_shared<LocalizationMap>();
   std::vector<Eigen::VectorXd> latent;
   map->observer_begin.push_back(0);
-  for (int j = 0; j < kKeyframes; ++j) map->observers.push_back(mapstore::Id{1, uint64_t(j + 1)});
+  for (int j = 0; j < kKeyframes; ++j) map->observers.push_back(MapObjectId{1, uint64_t(j + 1)});
   uint8_t d[kBytes];
   for (int j = 0; j < kKeyframes; ++j) {
     const Transformation T_G_C = MapKeyframePose(j);
@@ -172,7 +173,7 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
       camera.Unproject(Eigen::Vector2d(20 + u(rng) * 712, 20 + u(rng) * 440), &bearing);
       const double depth = 4.0 + 26.0 * u(rng);  // [m]
       map->p_G.push_back(T_G_C * (bearing / bearing.z() * depth));
-      map->landmark_ids.push_back(mapstore::Id{2, uint64_t(l + 1)});
+      map->landmark_ids.push_back(MapObjectId{2, uint64_t(l + 1)});
       map->observer_index.push_back(static_cast<uint32_t>(j));
       if (j + 1 < kKeyframes) map->observer_index.push_back(static_cast<uint32_t>(j + 1));
       map->observer_begin.push_back(static_cast<uint32_t>(map->observer_index.size()));

@@ -1,4 +1,4 @@
-#include "vilma/localizer/kitti_scenarios.h"
+#include "vilma/eval/localization/kitti_scenarios.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -7,6 +7,7 @@
 
 using namespace vilma;
 using namespace vilma::localizer;
+using namespace vilma::eval;
 namespace fs = std::filesystem;
 
 namespace {

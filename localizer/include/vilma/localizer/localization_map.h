@@ -2,17 +2,28 @@
 // their positions in the global frame G, a representative subset of their observations'
 // binary descriptors, and their observer vertices (for covisibility filtering). It is all the
 // localizer needs, saved as its own compact versioned binary file (docs/localizer.md,
-// "Localization").
+// "Localization"). Built from a VI-map by the map code (mapping/locmap): the localizer knows
+// no VI-map.
 #pragma once
 
 #include <Eigen/Core>
+#include <cstddef>
 #include <cstdint>
 #include <string>
 #include <vector>
 
-#include "vilma/mapstore/vi_map.h"
-
 namespace vilma::localizer {
+
+// The 128-bit id of the map object (landmark, observer vertex) an entry came from: opaque to
+// the localizer, which only stores and compares it; the map code converts it to and from the
+// VI-map's ids (mapping/locmap). 16 bytes, hi then lo, as stored in the file.
+struct MapObjectId {
+  uint64_t hi = 0;
+  uint64_t lo = 0;
+  bool operator==(const MapObjectId& o) const { return hi == o.hi && lo == o.lo; }
+  bool operator!=(const MapObjectId& o) const { return !(*this == o); }
+};
+static_assert(sizeof(MapObjectId) == 16, "MapObjectId is stored as 16 bytes");
 
 struct LocalizationMapOptions {
   // Descriptors kept per landmark: all its observations' descriptors when it has at most this
@@ -25,17 +36,24 @@ struct LocalizationMapOptions {
 };
 
 struct LocalizationMap {
-  static constexpr uint32_t kFormatVersion = 1;
+  // 2: per-landmark covariance after p_G. Version 1 files (without it) still load.
+  static constexpr uint32_t kFormatVersion = 2;
 
   uint32_t descriptor_bytes = 64;  // 512-bit BRISK
   // Per landmark (index l).
-  std::vector<mapstore::LandmarkId> landmark_ids;
+  std::vector<MapObjectId> landmark_ids;  // the VI-map landmark of each
   std::vector<Eigen::Vector3d> p_G;  // [m]
+  // Covariance of p_G [m^2] per landmark (from its triangulation: the observation geometry
+  // under keypoint noise, e.g. stereo depth sigma_Z = Z^2 sigma_d / (f b)), or empty: unknown,
+  // the landmarks are then taken as exact. The localizer propagates it into the reprojection
+  // residual's covariance (pose_acceptance.h): a far stereo point constrains the pose little.
+  // Floats: 36 bytes per landmark, sigmas of micrometres to metres.
+  std::vector<Eigen::Matrix3f> p_G_covariance;
   // Observer vertices of landmark l: observer_index[observer_begin[l] .. observer_begin[l+1])
   // into `observers` (deduplicated vertex ids, the nodes of the covisibility graph).
   std::vector<uint32_t> observer_begin;  // size landmarks + 1
   std::vector<uint32_t> observer_index;
-  std::vector<mapstore::VertexId> observers;
+  std::vector<MapObjectId> observers;
   // Descriptors: descriptor d belongs to landmark descriptor_landmark[d]; its bytes are
   // descriptors[d * descriptor_bytes ...].
   std::vector<uint32_t> descriptor_landmark;
@@ -53,32 +71,9 @@ struct LocalizationMap {
   std::string Validate() const;
 };
 
-// Which missions of a VI-map share the frame G, so that their landmarks can be summarized
-// together: the anchored missions (baseframe known: T_G_M is meaningful) when there is one;
-// else the FIRST mission alone, whose odometry frame M then is G (T_G_M = identity). An
-// unanchored mission after the first one (e.g. the daemon's new mission after a filter reset,
-// docs/daemon.md) has its own unknown frame: mixing its landmarks in would place them wrongly.
-std::vector<mapstore::MissionId> MissionsInCommonFrame(const mapstore::VIMap& map);
-
-struct LocalizationMapReport {
-  int missions_used = 0;
-  int missions_skipped = 0;  // not in the common frame (see MissionsInCommonFrame)
-};
-
-// From the missions of MissionsInCommonFrame(map): landmarks of quality good (unknown and bad
-// are skipped), positioned with their mission's T_G_M. `report` (optional) says which were used.
-LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
-                                     const LocalizationMapOptions& options = {},
-                                     LocalizationMapReport* report = nullptr);
-
-// The same from the given missions (the caller vouches that they share the frame G), in their
-// order: loop closure queries a mission against itself and the missions anchored with it.
-LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
-                                               const std::vector<mapstore::MissionId>& missions,
-                                               const LocalizationMapOptions& options = {});
-
-// Binary little-endian file: magic "VLOCMAP1", format version, counts, arrays, then the CRC-32
-// of everything before it. Written atomically (temporary file, fsync, rename). Load throws
+// Binary little-endian file: magic "VLOCMAP1", format version, counts, arrays (version 2: the
+// landmark covariances after p_G, 0 or one per landmark), then the CRC-32 of everything
+// before it. Written atomically (temporary file, fsync, rename). Load throws
 // InputError naming the file and the field that is wrong.
 void SaveLocalizationMap(const LocalizationMap& map, const std::string& path);
 LocalizationMap LoadLocalizationMap(const std::string& path);

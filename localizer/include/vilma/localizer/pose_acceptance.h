@@ -45,6 +45,13 @@ struct PoseAcceptanceOptions {
   // 0.3 m / 2 deg of a correct localization by default).
   double max_position_sigma_m = 0.15;
   double max_rotation_sigma_deg = 0.67;
+  // Landmark uncertainty (the map's p_G_covariance, when it has one): each inlier's residual
+  // gets the covariance Sigma_r = sigma_px^2 I + J_l Sigma_l J_l^T (J_l = d e / d p_G), the
+  // refinement weights it by Sigma_r^-1 and the pose covariance is (sum J^T Sigma_r^-1 J)^-1,
+  // scaled by the normalized residual chi^2 / (2n - 6) when above 1. A far stereo point, whose
+  // depth is uncertain by metres, then constrains the position little instead of as much as a
+  // near one. False: the landmarks are taken as exact (as for a map without covariances).
+  bool landmark_uncertainty = true;
   // Second hypothesis: RANSAC again on the matches whose error under the winner exceeds
   // rival_exclusion_factor x threshold_px; its inliers over the winner's must not exceed
   // max_rival_ratio. A P3P sample alone makes 3-4 inliers, so this also asks the winner for
@@ -104,24 +111,48 @@ struct AcceptedPose {
 };
 
 // Refines `pose` (a RANSAC result with a model: status ok or too_few_inliers) with all its
-// inliers and runs the gates. keypoints[i] sees p_G[i].
+// inliers and runs the gates. keypoints[i] sees p_G[i], whose covariance [m^2] is
+// p_G_covariance[i] (empty: exact landmarks; used when options.landmark_uncertainty).
 AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
                         const std::vector<Eigen::Vector3d>& p_G, const PoseResult& pose,
-                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options);
+                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options,
+                        const std::vector<Eigen::Matrix3d>& p_G_covariance = {});
 
 // Reprojection residual e = project(T_G_C^-1 p_G) - uv and its Jacobian d_e_d_xi with respect
 // to the right perturbation T_G_C Exp(xi), xi = [rho; phi] (geometry.h). False when p_G does
 // not project (behind the camera, outside the model's domain).
+// d_e_d_p_G (optional) is the Jacobian with respect to the landmark, J_uv_p R_C_G.
 bool ReprojectionResidual(const Camera& camera, const Transformation& T_G_C,
                           const Eigen::Vector3d& p_G, const Eigen::Vector2d& uv,
-                          Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 6>* d_e_d_xi);
+                          Eigen::Vector2d* residual, Eigen::Matrix<double, 2, 6>* d_e_d_xi,
+                          Eigen::Matrix<double, 2, 3>* d_e_d_p_G = nullptr);
+
+// Covariance of the residual of a keypoint with noise sigma_px seeing a landmark with
+// covariance covariance_G [px^2]: Sigma_r = sigma_px^2 I + J_l Sigma_l J_l^T, J_l = d_e_d_p_G
+// (first-order propagation: the keypoint and the landmark errors are independent).
+Eigen::Matrix2d ResidualCovariance(const Eigen::Matrix<double, 2, 3>& d_e_d_p_G,
+                                   const Eigen::Matrix3d& covariance_G, double sigma_px);
+
+// Gauss-Newton on sum e_i^T Sigma_r,i^-1 e_i over `indices` (Sigma_r re-evaluated at every
+// iterate), the maximum-likelihood pose when the landmarks are uncertain; with an empty
+// p_G_covariance it is RefineCameraPose. Updates T_G_C.
+void RefineCameraPoseWeighted(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
+                              const std::vector<Eigen::Vector3d>& p_G,
+                              const std::vector<Eigen::Matrix3d>& p_G_covariance,
+                              const std::vector<int>& indices, int iterations, double sigma_px,
+                              Transformation* T_G_C);
 
 // Covariance s^2 (J^T J)^-1 over `indices` with s^2 = max(sum |e|^2 / (2n - 6), sigma_px^2)
-// (residual variance, floored by the keypoint noise). False (and zero) if singular or n < 4.
+// (residual variance, floored by the keypoint noise). With landmark covariances
+// (p_G_covariance[i] for p_G[i]): f (sum J^T Sigma_r^-1 J)^-1, Sigma_r = ResidualCovariance,
+// f = max(1, sum e^T Sigma_r^-1 e / (2n - 6)) — the same as the first when every Sigma_l is
+// zero. residual_sigma_px is sqrt(sum |e|^2 / (2n - 6)) either way. False (and zero) if
+// singular or n < 4.
 bool PoseCovariance(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
                     const std::vector<Eigen::Vector3d>& p_G, const std::vector<int>& indices,
                     const Transformation& T_G_C, double sigma_px, Matrix6d* covariance_C,
-                    double* residual_sigma_px);
+                    double* residual_sigma_px,
+                    const std::vector<Eigen::Matrix3d>& p_G_covariance = {});
 
 // Shares of the grid cells holding a point and of the image covered by the points' convex hull.
 void ImageSpread(const Camera& camera, const std::vector<Eigen::Vector2d>& points, int grid_cols,

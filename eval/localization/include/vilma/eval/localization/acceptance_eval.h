@@ -17,7 +17,13 @@
 #include "vilma/core/geometry.h"
 #include "vilma/localizer/localizer.h"
 
-namespace vilma::localizer {
+namespace vilma::eval {
+
+// The localizer's types this harness is written in.
+using localizer::Localizer;
+using localizer::LocalizationStatus;
+using localizer::LocalizerStats;
+using localizer::PoseQuality;
 
 // What is done to a query's features before it is localized. Applied in this order: box,
 // max_keypoints, swap_fraction.
@@ -106,4 +112,4 @@ void WriteAcceptanceRow(std::ostream& out, const AcceptanceSummary& summary);
 // One line per query (frame, status, counts, oracle, errors, sigmas).
 void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery>& queries);
 
-}  // namespace vilma::localizer
+}  // namespace vilma::eval

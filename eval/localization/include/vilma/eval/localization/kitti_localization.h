@@ -20,7 +20,16 @@
 #include "vilma/localizer/localizer.h"
 #include "vilma/mapstore/vi_map.h"
 
-namespace vilma::localizer {
+namespace vilma::eval {
+
+// The localizer's types this harness is written in.
+using localizer::KeyframeFeatureOptions;
+using localizer::KeyframeFeatures;
+using localizer::Localizer;
+using localizer::LocalizerOptions;
+using localizer::LocalizationStatus;
+using localizer::LocalizerStats;
+using localizer::LocalizationMap;
 
 // A KITTI odometry sequence folder: calib.txt (P0, P1: rectified 3x4 projection matrices),
 // poses.txt (T_W_C0 per frame, 3x4 row-major), image_l/ and image_r/ (PNG, sorted by name).
@@ -71,6 +80,9 @@ struct KittiLocalizationOptions {
   // current left keypoint, and the left descriptors must agree.
   double merge_radius_px = 6.0;
   int merge_max_hamming_distance = 70;
+  // Keypoint noise of the stereo triangulation [px]: each landmark's covariance (the map's
+  // p_G_covariance, used by the localizer's acceptance) is sigma^2 (J_L^T J_L + J_R^T J_R)^-1.
+  double landmark_sigma_px = 1.0;
   // Success gates of a localization (the recall definition).
   double max_position_error_m = 0.3;
   double max_rotation_error_deg = 2.0;
@@ -140,4 +152,4 @@ KittiLocalizationReport EvaluateKittiLocalization(const KittiSequence& sequence,
 void WriteKittiReport(std::ostream& out, const KittiLocalizationReport& report,
                       const KittiLocalizationOptions& options);
 
-}  // namespace vilma::localizer
+}  // namespace vilma::eval

@@ -9,10 +9,14 @@
 #include <string>
 #include <vector>
 
-#include "vilma/localizer/acceptance_eval.h"
-#include "vilma/localizer/kitti_localization.h"
+#include "vilma/eval/localization/acceptance_eval.h"
+#include "vilma/eval/localization/kitti_localization.h"
+#include "vilma/localizer/localization_map.h"
 
-namespace vilma::localizer {
+namespace vilma::eval {
+
+// The localizer's types this harness is written in.
+using localizer::LocalizationMap;
 
 struct KittiScenario {
   std::string name;
@@ -46,4 +50,4 @@ std::vector<AcceptanceQuery> RunKittiScenario(const KittiSequence& sequence,
                                               const KittiScenario& scenario,
                                               const AcceptanceGates& gates);
 
-}  // namespace vilma::localizer
+}  // namespace vilma::eval

@@ -7,11 +7,11 @@
 
 #include <string>
 
-#include "vilma/localizer/localization_map.h"
 #include "vilma/localizer/localizer.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/mapstore/vi_map.h"
 
-namespace vilma::localizer {
+namespace vilma::mapping {
 
 struct LocalizationMapFileReport {
   LocalizationMapReport missions;  // which missions were in the common frame
@@ -26,8 +26,8 @@ struct LocalizationMapFileReport {
 // landmark with options.map.min_observations observations, and `path` when it cannot be
 // written. Options are validated by the caller.
 LocalizationMapFileReport BuildAndSaveLocalizationMap(const mapstore::VIMap& vimap,
-                                                      const LocalizerOptions& options,
+                                                      const localizer::LocalizerOptions& options,
                                                       const std::string& source,
                                                       const std::string& path);
 
-}  // namespace vilma::localizer
+}  // namespace vilma::mapping
