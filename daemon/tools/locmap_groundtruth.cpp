@@ -10,7 +10,7 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
-#include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/mapping/map_builder.h"
 
 namespace {
@@ -95,7 +95,7 @@ int main(int argc, char** argv) {
     }
     while (next_imu < imu.size()) builder.AddImu(imu[next_imu++]);
     builder.Finish();
-    const localizer::LocalizationMap map = localizer::BuildLocalizationMap(builder.map());
+    const localizer::LocalizationMap map = mapping::BuildLocalizationMap(builder.map());
     localizer::SaveLocalizationMap(map, out);
     std::cout << "vilma-locmap-gt: " << builder.stats().vertices << " vertices, "
               << map.num_landmarks() << " landmarks, " << map.num_descriptors()
