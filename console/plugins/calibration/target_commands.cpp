@@ -62,7 +62,8 @@ void LoadTarget(CommandContext& c, const LoadTargetOptions& o) {
 
 void Report(CommandContext& c, const TargetReportOptions& o) {
   const mapstore::VIMap& map = c.map();
-  std::vector<mapstore::MissionId> missions = mapping::ResolveMissions(map, o.map_mission);
+  const std::vector<mapstore::MissionId> missions =
+      o.map_mission.empty() ? map.mission_ids() : mapping::ResolveMissions(map, o.map_mission);
   if (missions.empty()) throw CommandError("the map has no mission");
   const mapstore::MissionId mission = missions.front();
   const mapstore::Mission& m = map.mission(mission);
