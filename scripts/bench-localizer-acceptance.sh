@@ -2,7 +2,7 @@
 # Localizer acceptance benchmark (docs/localizer.md, "Acceptance: a wrong pose is never
 # accepted"; issue 17 part 2): precision and recall of `Localizer::Localize` per data set.
 # Prints one markdown table; every row is a data set:
-#   - kitti *: the hard cases of localizer/kitti_scenarios.h made from the real KITTI slice
+#   - kitti *: the hard cases of eval/localization/kitti_scenarios.h made from the real KITTI slice
 #     ../shared/data/kitti_slices/KITTI_sequence_1 (maps built with the ground-truth poses);
 #   - euroc even-odd / halves (+ swapped-80, corner, few-keypoints): the 100 real EuRoC V1_01
 #     stereo keyframes (../shared/data/euroc_V1_01_keyframes): a map of the even keyframes
