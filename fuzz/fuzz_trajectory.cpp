@@ -6,7 +6,7 @@
 #include <sstream>
 #include <string>
 
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 #include <vector>
 #include "fuzz_util.h"
 

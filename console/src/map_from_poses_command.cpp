@@ -8,7 +8,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
 #include "vilma/core/strict_parse.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 #include "vilma/mapping/from_poses/map_from_poses.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"

@@ -14,7 +14,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 
 namespace vilma {
 namespace {

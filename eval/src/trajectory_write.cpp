@@ -1,4 +1,4 @@
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 
 #include <cinttypes>
 #include <cstdio>

@@ -1,4 +1,5 @@
 #include "vilma/console/eval_command.h"
+#include "vilma/eval/alignment_json.h"
 #include "test_skip.h"
 
 #include <catch2/catch.hpp>
@@ -646,27 +647,33 @@ TEST_CASE("eval --align-from: malformed files name the file, the field and the e
     return v1 + "\"alignment_transform\": {" + members + "}}";
   };
   const std::vector<std::pair<std::string, std::string>> cases = {
-      {"", "map.json: expected valid JSON: a value at line 1, column 1"},
+      {"",
+       "map.json: expected valid JSON: syntax error while parsing value - unexpected end of "
+       "input; expected '[', '{', or a literal at line 1, column 1"},
       {"[]", "map.json: expected a JSON object (the file of `vilma eval --json`), got an array"},
       {"{\"schema_version\": 1,}",
-       "map.json: expected valid JSON: a string key at line 1, "
-       "column 22"},
+       "map.json: expected valid JSON: syntax error while parsing object key - unexpected "
+       "'}'; expected string literal at line 1, column 22"},
       {v1 + good_t + "} x",
-       "map.json: expected valid JSON: the end of the file after the "
-       "top-level value at line 1, column 121"},
+       "map.json: expected valid JSON: syntax error while parsing value - invalid literal; "
+       "last read: '0]}} x'; expected end of input at line 1, column 121"},
       {v1 + "\"a\": NaN, " + good_t + "}",
-       "map.json: expected valid JSON: a value (object, array, string, number, true, false or "
-       "null) at line 1, column 28"},
+       "map.json: expected valid JSON: syntax error while parsing value - invalid literal; "
+       "last read: '\"a\": N' at line 1, column 28"},
       {v1 + "\"a\": 01, " + good_t + "}",
-       "map.json: expected valid JSON: no leading zero in a number at line 1, column 29"},
+       "map.json: expected valid JSON: syntax error while parsing object - unexpected number "
+       "literal; expected '}' at line 1, column 29"},
       {v1 + "\"a\": 1e999, " + good_t + "}",
        "map.json: expected valid JSON: a number in the range of a double at line 1, column 28"},
       {v1 + "\"a\": \"x\ny\", " + good_t + "}",
-       "map.json: expected valid JSON: no raw control character in a string (escape it) at "
-       "line 1, column 30"},
+       "map.json: expected valid JSON: syntax error while parsing value - invalid string: "
+       "control character U+000A (LF) must be escaped to \\u000A or \\n; last read: "
+       "'\"x<U+000A>' at line 1, column 30"},
       {v1 + "\"schema_version\": 1, " + good_t + "}",
        "map.json: expected valid JSON: no duplicate key \"schema_version\" at line 1, column 39"},
-      {v1 + good_t, "map.json: expected valid JSON: '}' at line 1, column 119"},
+      {v1 + good_t,
+       "map.json: expected valid JSON: syntax error while parsing object - unexpected end of "
+       "input; expected '}' at line 1, column 119"},
       {"{" + good_t + "}",
        "map.json: schema_version: expected 1 (a `vilma eval --json` file), missing"},
       {"{\"schema_version\": 2, " + good_t + "}",

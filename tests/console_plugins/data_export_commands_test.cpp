@@ -11,7 +11,7 @@
 #include "mapping_export/data_export_test_util.h"
 #include "vilma/console/session.h"
 #include "vilma/core/rig.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 #include "vilma/mapstore/vi_map.h"
 #include "test_skip.h"
 

@@ -11,7 +11,7 @@
 
 #include "console_plugins/test_maps.h"
 #include "vilma/core/asl_dataset.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/mapping/optimization/pose_graph.h"
 #include "vilma/mapstore/consistency.h"
 

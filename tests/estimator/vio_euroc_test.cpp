@@ -10,7 +10,7 @@
 #include "test_skip.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/rig.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/estimator/filter_options.h"
 #include "vilma/estimator/given_state_io.h"
 #include "vilma/estimator/vio_filter.h"

@@ -10,7 +10,7 @@
 
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/rig.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "test_skip.h"
 
 namespace vilma::estimator {

@@ -1,4 +1,4 @@
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 
 #include <catch2/catch.hpp>
 

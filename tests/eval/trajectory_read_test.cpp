@@ -9,8 +9,8 @@
 
 #include "core/test_data.h"
 #include "vilma/core/error.h"
-#include "vilma/core/trajectory.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/trajectory.h"
+#include "vilma/eval/evaluate.h"
 
 namespace vilma {
 namespace {

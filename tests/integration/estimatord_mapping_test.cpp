@@ -17,7 +17,7 @@
 
 #include "integration/process_util.h"
 #include "vilma/core/asl_dataset.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"
 #include "test_skip.h"

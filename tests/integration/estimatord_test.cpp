@@ -19,7 +19,7 @@
 #include "integration/process_util.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/time.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/drivers/lcm_convert.h"
 #include "vilma/drivers/lcm_log.h"
 #include "test_skip.h"

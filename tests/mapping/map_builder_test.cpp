@@ -15,8 +15,8 @@
 
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/rig.h"
-#include "vilma/core/trajectory.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/trajectory.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/sim/simulator.h"

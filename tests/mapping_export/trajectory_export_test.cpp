@@ -8,8 +8,8 @@
 #include "mapping_export/data_export_test_util.h"
 #include "mapstore/synthetic_map.h"
 #include "vilma/core/error.h"
-#include "vilma/core/trajectory.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/trajectory.h"
+#include "vilma/eval/evaluate.h"
 
 namespace vilma::mapping {
 namespace {

@@ -6,7 +6,7 @@
 #include <cmath>
 
 #include "mapping_optimization/simulated_vi_map.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/mapping/optimization/vi_optimization.h"
 #include "vilma/mapstore/consistency.h"
 

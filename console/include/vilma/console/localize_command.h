@@ -17,7 +17,7 @@
 #include <vector>
 
 #include "vilma/console/command.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 
 namespace vilma::console {
 

@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <string>
 
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 
 namespace vilma {
 

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "vilma/core/asl_dataset.h"
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/mapstore/vi_map.h"
 #include "vilma/sim/world.h"
 

@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "vilma/core/trajectory_eval.h"
+#include "vilma/eval/evaluate.h"
 #include "vilma/mapping/dense/dense_evaluation.h"
 #include "vilma/mapping/dense/tsdf_fusion.h"
 #include "vilma/sim/world.h"

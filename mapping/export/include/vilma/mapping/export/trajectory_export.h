@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "vilma/core/progress.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping {

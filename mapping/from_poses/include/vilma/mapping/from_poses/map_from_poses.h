@@ -29,7 +29,7 @@
 
 #include "vilma/core/progress.h"
 #include "vilma/core/rig.h"
-#include "vilma/core/trajectory.h"
+#include "vilma/eval/trajectory.h"
 #include "vilma/localizer/feature_options.h"
 #include "vilma/mapping/map_builder_options.h"
 #include "vilma/mapstore/vi_map.h"
