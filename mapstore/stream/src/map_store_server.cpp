@@ -98,6 +98,7 @@ struct MapStoreServer::OpenMission {
   int8_t status = vilma::mission_ack_t::OK;
   std::string status_message;
   std::map<int64_t, vilma::mission_chunk_t> reorder;  // seq > next_seq
+  std::size_t reorder_bytes = 0;                       // payload bytes held in `reorder`
   Clock::time_point last_activity;
 };
 
@@ -105,6 +106,10 @@ std::string MapStoreServerOptions::Validate() const {
   if (root.empty()) return "root: expected a directory path";
   if (!(incomplete_timeout_s >= 0.0)) return "incomplete_timeout_s: expected >= 0";
   if (max_reorder_chunks < 1) return "max_reorder_chunks: expected >= 1";
+  if (max_reorder_bytes < kMaxChunkPayloadBytes) {
+    return "max_reorder_bytes: expected >= " + std::to_string(kMaxChunkPayloadBytes) +
+           " (one chunk of the largest payload)";
+  }
   const std::string save_error = save.Validate();
   if (!save_error.empty()) return "save." + save_error;
   return "";
@@ -230,6 +235,11 @@ void MapStoreServer::OnChunk(const vilma::mission_chunk_t& chunk, Clock::time_po
       static_cast<uint32_t>(chunk.checksum) != Crc32(chunk.payload.data(), chunk.payload.size())) {
     return malformed("checksum mismatch, mission " + chunk.mission_id + " seq " + std::to_string(chunk.seq));
   }
+  if (chunk.payload.size() > MapStoreServerOptions::kMaxChunkPayloadBytes) {
+    return malformed("payload of " + std::to_string(chunk.payload.size()) + " bytes, expected <= " +
+                     std::to_string(MapStoreServerOptions::kMaxChunkPayloadBytes) + ", mission " +
+                     chunk.mission_id + " seq " + std::to_string(chunk.seq));
+  }
   if (chunk.seq < 0 ||
       (chunk.flags & (vilma::mission_chunk_t::FLAG_DATA | vilma::mission_chunk_t::FLAG_END)) == 0) {
     return malformed("bad seq or flags, mission " + chunk.mission_id);
@@ -297,18 +307,26 @@ void MapStoreServer::OnChunk(const vilma::mission_chunk_t& chunk, Clock::time_po
   }
   if (chunk.seq > m.next_seq) {
     ++counters_.chunks_out_of_order;
-    if (m.reorder.size() < options_.max_reorder_chunks) m.reorder.emplace(chunk.seq, chunk);
+    if (m.reorder.size() < options_.max_reorder_chunks &&
+        m.reorder_bytes + chunk.payload.size() <= options_.max_reorder_bytes &&
+        m.reorder.emplace(chunk.seq, chunk).second) {
+      m.reorder_bytes += chunk.payload.size();
+    }
     return;
   }
   AppendInOrder(m, chunk);
   // Drain what the reorder buffer now continues.
   while (!m.reorder.empty() && !m.end_received) {
     auto first = m.reorder.begin();
+    m.reorder_bytes -= first->second.payload.size();
     if (first->first < m.next_seq) {
       m.reorder.erase(first);
       continue;
     }
-    if (first->first != m.next_seq) break;
+    if (first->first != m.next_seq) {
+      m.reorder_bytes += first->second.payload.size();
+      break;
+    }
     const vilma::mission_chunk_t next = std::move(first->second);
     m.reorder.erase(first);
     AppendInOrder(m, next);
@@ -360,6 +378,7 @@ void MapStoreServer::Flush() {
         m.next_seq = m.durable_seq + 1;
         m.end_received = false;
         m.reorder.clear();
+        m.reorder_bytes = 0;
       }
     }
     if (!m.need_ack) continue;

@@ -48,6 +48,8 @@ constexpr const char kUsage[] =
     "                                                     # incomplete after this [s]; 0 never\n"
     "                         finalize_incomplete_at_shutdown: false\n"
     "                         max_reorder_chunks: 1024\n"
+    "                         max_reorder_mib: 256        # out-of-order payload kept per\n"
+    "                                                     # mission [MiB], >= 64\n"
     "                         max_ack_batch: 256          # chunks per fsync + ack\n"
     "                         post_process_script: \"\"     # console script run on every\n"
     "                                                     # mission folder (docs/mapstore.md)\n"
@@ -75,6 +77,11 @@ Config LoadConfig(const std::string& path) {
   c.server.incomplete_timeout_s = yaml.GetOr<double>("incomplete_timeout_s", 0.0);
   c.server.finalize_incomplete_at_shutdown = yaml.GetOr<bool>("finalize_incomplete_at_shutdown", false);
   c.server.max_reorder_chunks = yaml.GetOr<int>("max_reorder_chunks", 1024);
+  const int max_reorder_mib = yaml.GetOr<int>("max_reorder_mib", 256);
+  if (max_reorder_mib < 64 || max_reorder_mib > 65536) {
+    yaml.Fail("max_reorder_mib", "an integer in [64, 65536] (MiB; a chunk may hold 64 MiB)");
+  }
+  c.server.max_reorder_bytes = static_cast<std::size_t>(max_reorder_mib) << 20;
   c.post_process.vilma_program = DefaultVilmaProgram();
   c.max_ack_batch = yaml.GetOr<int>("max_ack_batch", 256);
   c.post_process.script = yaml.GetOr<std::string>("post_process_script", "");

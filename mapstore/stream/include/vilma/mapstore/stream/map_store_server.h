@@ -39,6 +39,15 @@ struct MapStoreServerOptions {
   double incomplete_timeout_s = 0.0;     // [s]
   bool finalize_incomplete_at_shutdown = false;
   std::size_t max_reorder_chunks = 1024; // out-of-order chunks kept per mission
+  // Size limits on what a sender (an untrusted LCM publisher) makes mapstored hold or write
+  // (docs/reliability.md "Size limits"). A chunk's payload above kMaxChunkPayloadBytes is
+  // malformed: the daemon's deltas are split at mapping.stream.max_delta_bytes (1 MiB by
+  // default), so 64 MiB leaves room for any sane setting, while LCM itself delivers up to
+  // 256 MiB. Out-of-order chunks are kept up to max_reorder_bytes of payload per mission
+  // (beyond: dropped, the sender retransmits them), so that 1024 large chunks cannot take
+  // 1024 x 256 MiB.
+  static constexpr std::size_t kMaxChunkPayloadBytes = std::size_t{64} << 20;
+  std::size_t max_reorder_bytes = std::size_t{256} << 20;  // [bytes of payload] per mission
   MapSaveOptions save;
   JournalFaultHook fault_hook;           // tests only: simulate write/fsync errors
   std::string Validate() const;          // "" or "field: expectation"
