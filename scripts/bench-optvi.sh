@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Visual-inertial batch optimization benchmark (docs/optimization.md, docs/benchmarks.md
-# "Optimization"). Two tables:
+# "Optimization"). Four tables:
 #   1. simulated: the daemon's VI-map of each set (vilma-estimatord --input-log --save-map: the
 #      VIO's poses, no ground truth used), then `optvi` with its defaults, and `lc; rtl; optvi`
 #      (loop closure merges re-observed landmarks first); `eval_map` before and
@@ -11,11 +11,19 @@
 #      0.2 m / 3 deg per keyframe), then the recipe `optvi; rtl; optvi; rtl; optvi; rtl; optvi`
 #      (elq with 2 observers: stereo keyframes); also the map from unperturbed ground truth
 #      through one optvi (how far the optimum lies from the ground truth).
+#   3. COLMAP: visual-only bundle adjustment, optv against colmap bundle_adjuster.
+#   4. target: ../shared/data/euroc_imu_april (real hand-held motion and IMU, AprilGrid corners
+#      with known target coordinates): `load_target_recording` (corners held as landmarks, PnP
+#      poses) from EuRoC's calibration (config/euroc-rig.yaml), and from it moved by 2 cm / 2 deg,
+#      and with a 5 ms clock shift injected into the camera stamps; `optvi` with the extrinsics,
+#      the time offset and the baseframe tilt free; `target_calibration_report`: camera poses
+#      against per-frame PnP, T_I_C against the calibration.
 #
 # Usage: scripts/bench-optvi.sh [SET ...]     (default: room-easy hall street)
 #   VILMA_BUILD_DIR, VILMA_DATASETS, BENCH_WORK (default ${VILMA_CACHE:-~/.cache/vilma}/bench-optvi),
 #   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2,
-#   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster).
+#   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster),
+#   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4.
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -60,6 +68,8 @@ optvi_figure() {
   esac
 }
 
+[ "${BENCH_SIM:-1}" = 0 ] && sets=()
+if [ ${#sets[@]} -gt 0 ]; then
 echo "### Simulated: daemon VI-maps (VIO poses) -> optvi, and lc; rtl; optvi"
 echo
 echo "| set | pipeline | vertices | good landmarks | ATE [m] VIO -> after (ratio) | rotation [deg] | gyro bias err [rad/s] | accel bias err [m/s^2] | landmarks to surfaces, median [cm] | reprojection RMSE [px] | optvi [s] (iterations, ms/iteration) | console [s] | peak RSS [MB] |"
@@ -88,6 +98,7 @@ for set in "${sets[@]}"; do
       "$(awk -v k="$(cat "$out.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')"
   done
 done
+fi
 
 kf=$shared/euroc_V1_01_keyframes
 if [ "${BENCH_REAL:-1}" = 0 ]; then
@@ -130,6 +141,78 @@ else
       "$(fmt "$(field "$b" accel_bias_error median)" 1 4)" "$(fmt "$(field "$a" accel_bias_error median)" 1 4)" \
       "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" \
       "$(field "$a" good_landmarks)" "$seconds"
+  done
+fi
+
+# 2b. The VIO's own map of the real moving slice (vilma vio --save-map: the filter's poses, the
+#     map builder's landmarks), then optvi: the vertex ATE (posyaw) against the slice's ground truth.
+moving=$shared/euroc_V1_01_moving
+if [ "${BENCH_REAL:-1}" != 0 ] && [ -d "$moving" ]; then
+  out=$work/euroc-moving
+  rm -rf "$out.map"
+  "$bin/vilma" vio "$moving" --out "$out.txt" --save-map "$out.map" > "$out.vio" 2>&1 ||
+    { cat "$out.vio" >&2; exit 1; }
+  start_s=$(date +%s.%N)
+  console "$out.console" "load $out.map; eval_map $moving --json=$out.before.json; optvi; \
+    eval_map $moving --json=$out.after.json; cmc"
+  seconds=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+  b=$out.before.json a=$out.after.json
+  echo
+  echo "### Real: EuRoC V1_01 moving (90 frames, 4.45 s): the VIO's map -> optvi"
+  echo
+  echo "| map | vertices | good landmarks after | ATE [m] VIO -> optvi | rotation [deg] | reprojection RMSE [px] | console [s] |"
+  echo "|---|---|---|---|---|---|---|"
+  printf '| vilma vio --save-map | %s | %s | %s -> %s | %s -> %s | %s -> %s | %s |\n' \
+    "$(field "$b" vertices)" "$(field "$a" good_landmarks)" \
+    "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
+    "$(fmt "$(field "$b" ate_rotation_deg)" 1 3)" "$(fmt "$(field "$a" ate_rotation_deg)" 1 3)" \
+    "$(fmt "$(field "$b" reprojection_px)" 1 3)" "$(fmt "$(field "$a" reprojection_px)" 1 3)" "$seconds"
+fi
+
+# 4. Camera-IMU calibration on the AprilGrid recording (docs/optimization.md "Target
+#    calibration"). The time offset t_d (t_imu = t_cam + t_d) is optvi's estimate; with the
+#    stamps shifted by +5 ms the expected t_d is (the recording's own) - 5 ms.
+april=$shared/euroc_imu_april
+rig=$repo_dir/config/euroc-rig.yaml
+if [ "${BENCH_TARGET:-1}" != 0 ] && [ -d "$april" ]; then
+  echo
+  echo "### Real IMU, known target: euroc_imu_april (72 s hand-held, AprilGrid corners held as landmarks)"
+  echo
+  echo "| start | vertices | observations | optvi: cam0 poses vs PnP, RMS [mm / deg] | cam1 poses vs PnP [mm / deg] | T_I_C cam0 vs EuRoC calibration [deg / mm] before -> after | T_I_C cam1 [deg / mm] before -> after | t_d cam0 / cam1 [ms] | reprojection RMSE [px] | optvi [s] (iterations, s/iteration) | peak RSS [MB] |"
+  echo "|---|---|---|---|---|---|---|---|---|---|---|"
+  for start in calibration perturbed perturbed-shift5ms; do
+    args=""
+    label="EuRoC calibration, t_d 0"
+    case "$start" in
+      perturbed) args="--perturb_extrinsics_m 0.02 --perturb_extrinsics_deg 2"
+                 label="calibration moved 2 cm / 2 deg" ;;
+      perturbed-shift5ms) args="--perturb_extrinsics_m 0.02 --perturb_extrinsics_deg 2 --camera_time_shift_ms 5"
+                 label="moved 2 cm / 2 deg, stamps +5 ms" ;;
+    esac
+    out=$work/april-$start
+    console "$out.console" "ltr $april --rig $rig $args; tcr --reference_rig $rig; \
+      optvi --ba_fix_landmarks --ba_fix_extrinsics=false --ba_estimate_time_offset \
+        --ba_estimate_baseframe_tilt --ba_outlier_rejection=false --evaluate_quality=false \
+        --ba_linear_solver sparse_normal_cholesky; save --out=$out.map --overwrite"
+    td0=$(grep -o 'camera 0: T_I_C moved .*time offset [-0-9.e]* -> [-0-9.e]* ms' "$out.console" | awk '{ print $(NF - 1) }')
+    td1=$(grep -o 'camera 1: T_I_C moved .*time offset [-0-9.e]* -> [-0-9.e]* ms' "$out.console" | awk '{ print $(NF - 1) }')
+    # The report after: the map's poses carried over the estimated offset.
+    "$bin/vilma" console -c "load $out.map; tcr --reference_rig $rig --time_offset_ms $td0" \
+      > "$out.after" 2>&1 ||
+      { cat "$out.after" >&2; exit 1; }
+    pnp() { grep "^camera $2 (" "$1" | sed -E 's/.*position RMS ([0-9.]+) mm.*rotation RMS ([0-9.]+) deg.*/\1 \/ \2/'; }
+    tic() { grep "^camera cam$2: T_I_C" "$1" | sed -E 's/.*rotation ([0-9.]+) deg, translation ([0-9.]+) mm.*/\1 \/ \2/'; }
+    optvi_line=$(grep '^optvi:' "$out.console")
+    printf '| %s | %s | %s | %s | %s | %s -> %s | %s -> %s | %s / %s | %s | %s (%s, %s) | %s |\n' "$label" \
+      "$(awk '/^vertices/ { print $2 }' "$out.console")" \
+      "$(grep -o 'observations [0-9]*' "$out.console" | head -1 | awk '{ print $2 }')" \
+      "$(pnp "$out.after" 0)" "$(pnp "$out.after" 1)" \
+      "$(tic "$out.console" 0)" "$(tic "$out.after" 0)" "$(tic "$out.console" 1)" "$(tic "$out.after" 1)" \
+      "$(fmt "$td0" 1 2)" "$(fmt "$td1" 1 2)" \
+      "$(echo "$optvi_line" | grep -o 'RMSE [0-9.]* -> [0-9.]*' | awk '{ print $2 " -> " $4 }')" \
+      "$(fmt "$(optvi_figure "$out.console" s)" 1 1)" "$(optvi_figure "$out.console" it)" \
+      "$(fmt "$(optvi_figure "$out.console" ms)" 0.001 2)" \
+      "$(awk -v k="$(cat "$out.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')"
   done
 fi
 
