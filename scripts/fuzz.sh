@@ -48,7 +48,9 @@ done
 [[ "$timeout_s" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --timeout: expected whole seconds >= 1" >&2; exit 2; }
 command -v clang++ > /dev/null || { echo "fuzz.sh: clang++ missing (apt-get install clang libfuzzer-14-dev)" >&2; exit 1; }
 
-all=$(sed -n '/^set(VILMA_FUZZ_HARNESSES/,/)/p' "$repo_dir/fuzz/CMakeLists.txt" | grep -o 'fuzz_[a-z_]*')
+# The harness list of fuzz/CMakeLists.txt, comments stripped (they may hold parentheses).
+all=$(awk '/^set\(VILMA_FUZZ_HARNESSES/ { on = 1 } on { sub(/#.*/, ""); print; if (/\)/) exit }' \
+  "$repo_dir/fuzz/CMakeLists.txt" | grep -o 'fuzz_[a-z_]*')
 [ ${#harnesses[@]} -gt 0 ] || mapfile -t harnesses <<< "$all"
 for h in "${harnesses[@]}"; do
   grep -qx "$h" <<< "$all" || { echo "fuzz.sh: unknown harness $h (one of: $(echo $all))" >&2; exit 2; }
