@@ -11,6 +11,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/drivers/lcm_log.h"
+#include "vilma/drivers/lcm_safe_decode.h"
 
 namespace vilma {
 namespace {
@@ -80,6 +81,57 @@ TEST_CASE("WriteLogJson writes status_t and pose_t events as JSON lines and skip
   CHECK(WriteLogJson(path, std::regex("VILMA_ODOM"), only_odom).poses == 1);
   CHECK(only_odom.str().find("\"type\":\"status\"") == std::string::npos);
   CHECK_THROWS_AS(WriteLogJson(dir + "/absent.lcmlog", std::regex(".*"), out), InputError);
+  std::filesystem::remove_all(dir);
+}
+
+std::vector<uint8_t> Encode(const status_t& s) {
+  std::vector<uint8_t> bytes(static_cast<std::size_t>(s.getEncodedSize()));
+  s.encode(bytes.data(), 0, static_cast<int>(bytes.size()));
+  return bytes;
+}
+
+void PutInt32(std::vector<uint8_t>* bytes, std::size_t at, int32_t value) {
+  for (int i = 0; i < 4; ++i) (*bytes)[at + i] = static_cast<uint8_t>(static_cast<uint32_t>(value) >> (24 - 8 * i));
+}
+
+TEST_CASE("DecodeStatusMessage bounds the array counts before lcm-gen allocates them", "[lcm][safe_decode]") {
+  const status_t s = MakeStatus();
+  std::vector<uint8_t> bytes = Encode(s);
+  status_t out;
+  REQUIRE(DecodeStatusMessage(bytes.data(), static_cast<int>(bytes.size()), &out) == "");
+  CHECK(out.counter_names == s.counter_names);
+  CHECK(out.metric_values[0] == 2.5);
+  // num_counters sits after hash, utime, node, state and message.
+  const std::size_t at_counters = 8 + 8 + 4 + s.node.size() + 1 + 4 + 4 + s.message.size() + 1;
+  std::vector<uint8_t> huge = bytes;
+  PutInt32(&huge, at_counters, 0x7fffffff);  // lcm-gen would resize to 2^31 - 1 strings
+  CHECK(DecodeStatusMessage(huge.data(), static_cast<int>(huge.size()), &out) ==
+        "status_t: counter_names: count 2147483647 beyond the message");
+  PutInt32(&huge, at_counters, -1);
+  CHECK(DecodeStatusMessage(huge.data(), static_cast<int>(huge.size()), &out) ==
+        "status_t: counter_names: count -1 < 0");
+  CHECK_THAT(DecodeStatusMessage(bytes.data(), static_cast<int>(bytes.size()) - 1, &out),
+             Catch::StartsWith("status_t:"));
+  CHECK_THAT(DecodeStatusMessage(bytes.data(), 3, &out), Catch::StartsWith("status_t:"));
+  std::vector<uint8_t> longer = bytes;
+  longer.push_back(0);
+  CHECK(DecodeStatusMessage(longer.data(), static_cast<int>(longer.size()), &out) ==
+        "status_t: 1 bytes after the last field");
+  CHECK(DecodeStatusMessage(nullptr, 0, &out) != "");
+
+  // Through the log reader: the event is skipped, the next one is read.
+  const std::string dir = TempDir("log_json_huge");
+  {
+    LcmLogWriter writer(dir + "/huge.lcmlog");
+    PutInt32(&huge, at_counters, 0x7fffffff);
+    writer.Write("VILMA_STATUS", huge.data(), static_cast<int>(huge.size()), 1);
+    writer.WriteMessage("VILMA_STATUS", s, 2);
+    writer.Close();
+  }
+  std::ostringstream json;
+  const LogJsonStats stats = WriteLogJson(dir + "/huge.lcmlog", std::regex(".*"), json);
+  CHECK(stats.skipped == 1);
+  CHECK(stats.status == 1);
   std::filesystem::remove_all(dir);
 }
 

@@ -49,6 +49,19 @@ class EncodingWalker {
     at_ += static_cast<int64_t>(count) * element_bytes;
     return true;
   }
+  // An int32 count followed by that many strings (lcm-gen resizes the array to the count
+  // before reading it: each string takes at least 5 bytes, so the count is bounded first).
+  bool CountedStrings(const char* field, int32_t* count) {
+    if (!Int32(count)) return Fail(field, "truncated before the count");
+    if (*count < 0) return Fail(field, "count " + std::to_string(*count) + " < 0");
+    if (static_cast<int64_t>(*count) * 5 > size_ - at_) {
+      return Fail(field, "count " + std::to_string(*count) + " beyond the message");
+    }
+    for (int32_t i = 0; i < *count; ++i) {
+      if (!String(field)) return false;
+    }
+    return true;
+  }
   // "" when the walk used the whole buffer, else what went wrong.
   std::string Finish(const char* type_name) const {
     if (!ok_) return std::string(type_name) + ": " + (error_.empty() ? "truncated" : error_);
@@ -109,6 +122,20 @@ std::string DecodeMissionAck(const void* data, int size, mission_ack_t* msg) {
          walk.Skip(8) && walk.Skip(1) && walk.String("message"));
   if (std::string error = walk.Finish("mission_ack_t"); !error.empty()) return error;
   return DecodeChecked(data, size, "mission_ack_t", msg);
+}
+
+std::string DecodeStatusMessage(const void* data, int size, status_t* msg) {
+  // hash, utime, node, state, message, num_counters, counter_names[], counter_values[],
+  // num_metrics, metric_names[], metric_values[].
+  EncodingWalker walk(data, size);
+  int32_t counters = 0, metrics = 0;
+  (void)(walk.Skip(8) && walk.Skip(8) && walk.String("node") && walk.Skip(4) &&
+         walk.String("message") && walk.CountedStrings("counter_names", &counters) &&
+         walk.Skip(8 * static_cast<int64_t>(counters)) &&
+         walk.CountedStrings("metric_names", &metrics) &&
+         walk.Skip(8 * static_cast<int64_t>(metrics)));
+  if (std::string error = walk.Finish("status_t"); !error.empty()) return error;
+  return DecodeChecked(data, size, "status_t", msg);
 }
 
 }  // namespace vilma

@@ -7,6 +7,7 @@
 
 #include "vilma/core/json.h"
 #include "vilma/drivers/lcm_log.h"
+#include "vilma/drivers/lcm_safe_decode.h"
 
 namespace vilma {
 namespace {
@@ -65,11 +66,13 @@ LogJsonStats WriteLogJson(const std::string& path, const std::regex& channel_reg
     ++stats.events_matched;
     const int size = static_cast<int>(event.data.size());
     // decode() checks the type's fingerprint first, so each event decodes as one type at most.
-    // lcm-gen's decoders throw std::length_error on a negative array length (a corrupted or
+    // lcm-gen's decoders throw std::length_error on a string length of 0 (a corrupted or
     // hostile event, docs/reliability.md): such an event is skipped like any undecodable one.
+    // status_t goes through DecodeStatusMessage, which bounds its array counts before lcm-gen
+    // allocates them (lcm_safe_decode.h); pose_t has fixed arrays and checked strings.
     int decoded_as = 0;
     try {
-      if (status.decode(event.data.data(), 0, size) >= 0) {
+      if (DecodeStatusMessage(event.data.data(), size, &status).empty()) {
         decoded_as = 1;
       } else if (pose.decode(event.data.data(), 0, size) >= 0) {
         decoded_as = 2;

@@ -13,10 +13,14 @@
 
 #include <vilma/mission_ack_t.hpp>
 #include <vilma/mission_chunk_t.hpp>
+#include <vilma/status_t.hpp>
 
 namespace vilma {
 
 std::string DecodeMissionChunk(const void* data, int size, mission_chunk_t* msg);
 std::string DecodeMissionAck(const void* data, int size, mission_ack_t* msg);
+// status_t's decoder resizes its name/value arrays to the counts it reads before checking
+// them against the buffer: a count of 2^31 - 1 in a 100-byte message allocates 2^31 strings.
+std::string DecodeStatusMessage(const void* data, int size, status_t* msg);
 
 }  // namespace vilma
