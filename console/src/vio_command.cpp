@@ -32,6 +32,7 @@ void PrintVioHelp(std::ostream& out) {
   out << "usage: vilma vio DATASET --out TRAJ.txt [--config FILE] [--rig RIG.yaml]\n"
          "                 [--camera INDEX] [--log-timing FILE] [--print-config]\n"
          "                 [--save-map DIR [--map-config FILE]] [--initial-state FILE]\n"
+         "                 [--stereo [--stereo-camera INDEX]]\n"
          "\n"
          "Runs the ROVIO-style visual-inertial odometry over an ASL/EuRoC dataset folder,\n"
          "single-threaded and deterministically, and writes the IMU pose T_M_I of every frame\n"
@@ -42,7 +43,12 @@ void PrintVioHelp(std::ostream& out) {
          "                      config/estimator.yaml)\n"
          "  --rig FILE          sensor rig YAML (default: DATASET/rig.yaml if present, else the\n"
          "                      EuRoC sensor.yaml files of DATASET)\n"
-         "  --camera INDEX      camera of the rig to use (default 0)\n"
+         "  --camera INDEX      camera of the rig to use (default 0): the VIO camera, in which\n"
+         "                      the features are anchored\n"
+         "  --stereo            also use a second camera (stereo.enabled: true): photometric\n"
+         "                      updates in both images and stereo-matched initial depths; the\n"
+         "                      frames are the synchronized pairs (docs/estimator.md, \"Stereo\")\n"
+         "  --stereo-camera INDEX  the second camera (stereo.camera; default: the config's, 1)\n"
          "  --log-timing FILE   per-frame CSV: t_ns,ms,features,updated,rejected,added\n"
          "  --print-config      print the effective filter options (and map builder options)\n"
          "  --save-map DIR      also build a VI-map mission (vertices, IMU edges, keyframe\n"
@@ -85,6 +91,10 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
       o.print_config = arg.Flag();
     } else if (a == "--camera") {
       o.camera = arg.IntValue(0);
+    } else if (a == "--stereo") {
+      o.stereo = arg.Flag();
+    } else if (a == "--stereo-camera") {
+      o.stereo_camera = arg.IntValue(0);
     } else if (a.rfind("-", 0) == 0) {
       throw UsageError("unknown option '" + a + "'");
     } else if (o.dataset.empty()) {
@@ -96,6 +106,7 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
   if (!o.help) {
     if (o.dataset.empty()) throw UsageError("expected a DATASET folder");
     if (o.out_path.empty()) throw UsageError("--out: required");
+    if (o.stereo_camera >= 0 && !o.stereo) throw UsageError("--stereo-camera: only with --stereo");
     if (!o.map_config_path.empty() && o.save_map_dir.empty()) {
       throw UsageError("--map-config: only with --save-map");
     }
@@ -119,6 +130,8 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     cv::setNumThreads(1);  // one core, deterministic
     estimator::FilterOptions options;
     if (!o.config_path.empty()) options = estimator::LoadFilterOptions(o.config_path);
+    if (o.stereo) options.stereo.enabled = true;
+    if (o.stereo_camera >= 0) options.stereo.camera = o.stereo_camera;
     SensorRig rig;
     std::string rig_source;
     if (!o.rig_path.empty()) {
@@ -141,6 +154,10 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     }
     mapping::MapBuilderOptions map_options;
     if (!o.map_config_path.empty()) map_options = mapping::LoadMapBuilderOptions(o.map_config_path);
+    if (options.stereo.enabled && options.stereo.camera == o.camera) {
+      throw InputError(FormatInputError("--stereo-camera", std::to_string(options.stereo.camera),
+                                        "a camera other than --camera"));
+    }
     if (o.print_config) out << estimator::FilterOptionsToYaml(options);
     if (o.print_config && !o.save_map_dir.empty()) {
       out << "# map builder\n" << mapping::MapBuilderOptionsToYaml(map_options);
@@ -318,7 +335,9 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
         << " duplicate, " << sc.images_out_of_order << " out-of-order, " << sc.images_late
         << " late images\n";
     if (options.stereo.enabled) {
-      out << "  stereo           camera " << options.stereo.camera << ", "
+      out << "  stereo           camera " << options.stereo.camera << ": " << s.stereo_updates
+          << " updates accepted, " << s.stereo_rejections << " not; " << s.stereo_matches
+          << " initial depths matched, " << s.stereo_match_failures << " not; "
           << pipeline.stage().counters().frames_without_stereo << " frames without it\n";
     }
     if (builder) {

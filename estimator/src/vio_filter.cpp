@@ -24,7 +24,14 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
   if (!rig_error.empty()) throw InputError(FormatInputError("sensor rig", "", rig_error));
   camera_ = rig.cameras[static_cast<std::size_t>(camera_index)];
   if (options.stereo.enabled) {
-    throw InputError(FormatInputError("filter options", "stereo.enabled", "false (stereo is not built yet)"));
+    if (options.stereo.camera == camera_index ||
+        options.stereo.camera >= static_cast<int>(rig.cameras.size())) {
+      throw InputError(FormatInputError(
+          "filter options", "stereo.camera",
+          "a camera of the rig other than the VIO camera " + std::to_string(camera_index)));
+    }
+    stereo_ = true;
+    second_camera_ = rig.cameras[static_cast<std::size_t>(options.stereo.camera)];
   }
   initializer_ = VisualInertialInitializer(camera_, rig.imu.gravity_magnitude, options.init.dynamic);
   // The detector ranks candidates with the tracker's own patch.
@@ -57,6 +64,7 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
   K_.resize(x_.dim(), 2);
   KS_.resize(x_.dim(), 2);
   Pcols_.resize(x_.dim(), 3);
+  if (stereo_) Pcols4_.resize(x_.dim(), 4);
   occupied_.reserve(static_cast<std::size_t>(slots));
   imu_.reserve(4096);
 }
@@ -327,6 +335,9 @@ void VioFilter::AddFeatures() {
     const double sp = fo.init_bearing_sigma_px;
     P_.block<2, 2>(k, k) = sp * sp * track.D * track.D.transpose();
     P_(k + 2, k + 2) = fo.init_inverse_depth_sigma * fo.init_inverse_depth_sigma;
+    if (have_second_image_ && options_.stereo.init_depth) {
+      InitializeDepthFromStereo(static_cast<int>(slot));
+    }
   }
 }
 
@@ -353,7 +364,6 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8) {
 
 FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
                                 const cv::Mat& second_gray8) {
-  (void)second_gray8;
   ++stats_.frames;
   FrameResult result;
   const int64_t t_ns = t_cam_ns + camera_.time_offset_ns;
@@ -370,6 +380,8 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
     Propagate(t_ns);
   }
   pyramid_.Build(image_gray8, options_.features.patch.num_levels);
+  have_second_image_ = stereo_ && !second_gray8.empty();
+  if (have_second_image_) pyramid2_.Build(second_gray8, options_.features.patch.num_levels);
 
   for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
     if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
@@ -378,6 +390,19 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
     } else {
       ++result.num_rejected;
     }
+  }
+  if (have_second_image_ && options_.stereo.update) {
+    // The same features in the second camera (ROVIO's multi-camera update): one more iterated
+    // update per feature, after all updates in the anchor camera.
+    for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
+      if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
+      if (UpdateFeatureInSecond(slot)) {
+        ++result.num_stereo_updated;
+      } else {
+        ++stats_.stereo_rejections;
+      }
+    }
+    stats_.stereo_updates += result.num_stereo_updated;
   }
   // Symmetrize in place (no temporary).
   for (Eigen::Index c = 0; c < P_.cols(); ++c) {
@@ -397,11 +422,14 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
   }
   stats_.updates += result.num_updated;
   stats_.rejections += result.num_rejected;
-  frames_without_updates_ = result.num_updated > 0 || result.initialized_now
+  frames_without_updates_ = result.num_updated > 0 || result.num_stereo_updated > 0 ||
+                                    result.initialized_now
                                 ? 0
                                 : frames_without_updates_ + 1;
   const int before = x_.num_active();
+  const int64_t matches_before = stats_.stereo_matches;
   AddFeatures();
+  result.num_stereo_initialized = static_cast<int>(stats_.stereo_matches - matches_before);
   result.num_added = x_.num_active() - before;
   result.num_features = x_.num_active();
 

@@ -3,7 +3,7 @@
 //
 //   vilma vio DATASET [--config FILE] [--rig RIG.yaml] [--camera INDEX] --out TRAJ.txt
 //             [--log-timing FILE] [--save-map DIR [--map-config FILE]]
-//             [--initial-state GT_FILE]
+//             [--initial-state GT_FILE] [--stereo [--stereo-camera INDEX]]
 //
 // Rig: --rig, else DATASET/rig.yaml if present (the simulator writes one), else the EuRoC
 // sensor.yaml files of DATASET. Writes T_M_I of every frame as TUM text (t in seconds, IMU
@@ -35,6 +35,8 @@ struct VioCommandOptions {
   std::string map_config_path;
   // --initial-state, empty: initialize from the sensors (static or moving start)
   std::string initial_state_path;
+  bool stereo = false;           // --stereo: stereo.enabled = true
+  int stereo_camera = -1;        // --stereo-camera, -1: the config's stereo.camera
   bool help = false;
 };
 

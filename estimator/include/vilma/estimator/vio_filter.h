@@ -34,6 +34,8 @@ struct FrameResult {
   int num_updated = 0;          // features whose update was accepted
   int num_rejected = 0;         // gated out / failed alignment
   int num_added = 0;
+  int num_stereo_updated = 0;   // stereo: updates accepted in the second camera
+  int num_stereo_initialized = 0;  // stereo: new features with rho from a stereo match
   bool initialized_now = false;
   bool reset = false;           // a health check failed; the filter re-initializes
   std::string reset_reason;
@@ -56,6 +58,10 @@ struct FilterStats {
   InitializerStats dynamic_init;  // alignment attempts and their rejections
   int64_t updates = 0;
   int64_t rejections = 0;
+  int64_t stereo_updates = 0;      // accepted updates in the second camera
+  int64_t stereo_rejections = 0;   // tried there, gated out / failed
+  int64_t stereo_matches = 0;      // new features with rho from a stereo match
+  int64_t stereo_match_failures = 0;  // new features left at features.init_inverse_depth
 };
 
 // A start from a known state (ground truth or a previous run: the usual way to evaluate VIO),
@@ -79,8 +85,8 @@ struct GivenState {
 
 class VioFilter {
  public:
-  // Uses camera `camera_index` of the rig (monocular). Throws InputError if options or rig are
-  // invalid.
+  // Uses camera `camera_index` of the rig (with options.stereo.enabled also camera
+  // options.stereo.camera). Throws InputError if options or rig are invalid.
   VioFilter(const SensorRig& rig, int camera_index, const FilterOptions& options);
 
   // IMU samples in time order (duplicates and out-of-order samples are dropped and counted).
@@ -124,6 +130,11 @@ class VioFilter {
              const Eigen::Matrix<double, 12, 12>& cov12, double yaw_sigma);
   void Propagate(int64_t t_ns);
   bool UpdateFeature(int slot);
+  // Stereo (vio_filter_stereo.cpp): the photometric update of a feature in the second camera,
+  // and the initial inverse distance of a new feature from a stereo match.
+  bool UpdateFeatureInSecond(int slot);
+  void InitializeDepthFromStereo(int slot);
+  Transformation T_C2_C1(const FilterState& x) const;
   void AddFeatures();
   void RemoveFeature(int slot);
   std::string CheckHealth() const;
@@ -137,6 +148,10 @@ class VioFilter {
 
   SensorRig rig_;
   CameraConfig camera_;
+  bool stereo_ = false;           // options.stereo.enabled
+  CameraConfig second_camera_;    // stereo: the second camera (extrinsics fixed from the rig)
+  ImagePyramid pyramid2_;         // stereo: the second image of the current frame
+  bool have_second_image_ = false;
   FilterOptions options_;
   PropagationNoise noise_;
 
@@ -162,6 +177,7 @@ class VioFilter {
   Eigen::VectorXd dx_;
   Eigen::Matrix<double, Eigen::Dynamic, 2> PHt_, K_, KS_;
   Eigen::Matrix<double, Eigen::Dynamic, 3> Pcols_;  // P columns of (dmu, dtd) of one feature
+  Eigen::Matrix<double, Eigen::Dynamic, 4> Pcols4_;  // stereo: (dmu, drho, dtd)
   Eigen::Vector3d last_omega_m_ = Eigen::Vector3d::Zero();  // last gyro measurement [rad/s]
   Eigen::VectorXd residual_;
   Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel_;

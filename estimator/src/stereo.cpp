@@ -1,0 +1,106 @@
+#include "vilma/estimator/stereo.h"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "vilma/estimator/filter_state.h"
+
+namespace vilma::estimator {
+
+bool PredictInOtherCamera(const Camera& camera2, const Transformation& T_C2_C1,
+                          const Eigen::Vector3d& mu_C1, double rho,
+                          OtherCameraPrediction* prediction) {
+  const Eigen::Matrix3d R_C2_C1 = T_C2_C1.rotationMatrix();
+  // m = R mu + rho p: p_C2 scaled by rho > 0 (the projection is scale invariant).
+  const Eigen::Vector3d m = R_C2_C1 * mu_C1 + rho * T_C2_C1.translation();
+  if (camera2.Project(m, &prediction->pixel, &prediction->J_pixel_m) !=
+      Camera::ProjectionResult::kValid) {
+    return false;
+  }
+  prediction->J_pixel_bearing = prediction->J_pixel_m * R_C2_C1 * BearingBasis(mu_C1);
+  prediction->J_pixel_rho = prediction->J_pixel_m * T_C2_C1.translation();
+  return true;
+}
+
+namespace {
+
+double MeanAbsResidual(const MultilevelPatch& patch, const ImagePyramid& pyramid,
+                       const Eigen::Vector2d& pixel, const Eigen::Matrix2d& warp,
+                       const PhotometricOptions& options, Eigen::VectorXd* r,
+                       Eigen::Matrix<double, Eigen::Dynamic, 2>* J) {
+  if (!ComputePhotometricResidual(patch, pyramid, pixel, warp, options, r, J) || r->size() == 0) {
+    return std::numeric_limits<double>::infinity();
+  }
+  return r->cwiseAbs().mean();
+}
+
+}  // namespace
+
+StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
+                               const ImagePyramid& pyramid2, const Camera& camera2,
+                               const Transformation& T_C2_C1, const Eigen::Vector3d& mu_C1,
+                               const StereoMatchOptions& options) {
+  StereoMatch match;
+  // The epipolar curve from infinity (rho = 0) to the nearest searched point, sampled at
+  // about search_step_px: the pixel speed |d pixel / d rho| at either end (the nearer end may
+  // be outside the image) sets the number of samples.
+  OtherCameraPrediction far, near;
+  const bool far_ok = PredictInOtherCamera(camera2, T_C2_C1, mu_C1, 0.0, &far);
+  const bool near_ok =
+      PredictInOtherCamera(camera2, T_C2_C1, mu_C1, options.max_inverse_depth, &near);
+  const double speed = std::max(far_ok ? far.J_pixel_rho.norm() : 0.0,
+                                near_ok ? near.J_pixel_rho.norm() : 0.0);
+  const double length_px = speed > 0.0 ? speed * options.max_inverse_depth
+                                        : 4.0 * options.search_step_px;
+  const int steps = std::clamp(static_cast<int>(std::ceil(length_px / options.search_step_px)), 1, 400);
+
+  // 1. Coarse search along the curve: the sample with the lowest mean |residual|.
+  Eigen::VectorXd r;
+  Eigen::Matrix<double, Eigen::Dynamic, 2> J;
+  double best_error = std::numeric_limits<double>::infinity();
+  double best_rho = 0.0;
+  OtherCameraPrediction p;
+  for (int k = 0; k <= steps; ++k) {
+    const double rho = options.max_inverse_depth * static_cast<double>(k) / steps;
+    if (!PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) continue;
+    const Eigen::Matrix2d W = p.J_pixel_bearing * D;  // A = I at extraction
+    const double e = MeanAbsResidual(patch, pyramid2, p.pixel, W, options.photometric, &r, &J);
+    if (e < best_error) {
+      best_error = e;
+      best_rho = rho;
+    }
+  }
+  if (!std::isfinite(best_error)) return match;
+
+  // 2. 2D alignment from the best sample (sub-pixel, corrects small calibration errors).
+  PredictInOtherCamera(camera2, T_C2_C1, mu_C1, best_rho, &p);
+  const Eigen::Matrix2d W = p.J_pixel_bearing * D;
+  const AlignmentResult aligned =
+      AlignPatch(patch, pyramid2, p.pixel, W, options.photometric, options.align_iterations);
+  if (!aligned.converged || aligned.mean_abs_error > options.max_match_error) return match;
+
+  // 3. rho of the curve point nearest to the aligned pixel: Gauss-Newton on
+  //    min_rho |pi2(R mu + rho p) - pixel|^2, step (J_rho^T e) / (J_rho^T J_rho).
+  double rho = best_rho;
+  for (int it = 0; it < 10; ++it) {
+    if (!PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) return match;
+    const double jj = p.J_pixel_rho.squaredNorm();
+    if (jj < 1e-12) return match;  // no baseline along the view: rho unobservable
+    const double step = p.J_pixel_rho.dot(aligned.pixel - p.pixel) / jj;
+    rho += step;
+    if (std::abs(step) * std::sqrt(jj) < 1e-3) break;
+  }
+  if (!(rho >= 0.0) || !PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) return match;
+  const double epipolar_px = (aligned.pixel - p.pixel).norm();
+  if (epipolar_px > options.max_epipolar_px) return match;
+  match.found = true;
+  match.rho = rho;
+  match.rho_sigma =
+      std::max(options.min_inverse_depth_sigma, options.pixel_sigma / p.J_pixel_rho.norm());
+  match.pixel = aligned.pixel;
+  match.mean_abs_error = aligned.mean_abs_error;
+  return match;
+}
+
+}  // namespace vilma::estimator

@@ -1,0 +1,230 @@
+#include "vilma/estimator/stereo.h"
+
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "estimator/plane_scene.h"
+#include "vilma/estimator/filter_state.h"
+#include "vilma/estimator/vio_filter.h"
+#include "vilma/estimator/vio_pipeline.h"
+
+namespace vilma::estimator {
+namespace {
+
+using testing::PlaneScene;
+
+// A radtan camera and a rotated, translated second camera: every term of the Jacobians matters.
+Camera DistortedCamera() {
+  Eigen::VectorXd k(4);
+  k << -0.28, 0.07, 2e-4, -1e-4;
+  return Camera(752, 480, Eigen::Vector4d(458.0, 457.0, 367.0, 248.0), DistortionModel::kRadTan, k);
+}
+Transformation SomeT_C2_C1() {
+  return Transformation(ExpSO3(Eigen::Vector3d(0.01, -0.02, 0.015)),
+                        Eigen::Vector3d(-0.11, 0.002, 0.001));
+}
+
+TEST_CASE("the second camera's pixel Jacobians match numeric differences") {
+  const Camera camera2 = DistortedCamera();
+  const Transformation T21 = SomeT_C2_C1();
+  for (const Eigen::Vector3d& dir : {Eigen::Vector3d(0.1, -0.05, 1.0), Eigen::Vector3d(-0.3, 0.2, 1.0),
+                                     Eigen::Vector3d(0.25, 0.3, 1.0)}) {
+    for (double rho : {0.0, 0.3, 1.5}) {
+      const Eigen::Vector3d mu = dir.normalized();
+      OtherCameraPrediction p;
+      REQUIRE(PredictInOtherCamera(camera2, T21, mu, rho, &p));
+      // The pixel is the projection of the point itself (rho > 0).
+      if (rho > 0) {
+        Eigen::Vector2d direct;
+        camera2.Project(T21 * (mu / rho), &direct);
+        CHECK((direct - p.pixel).norm() < 1e-9);
+      }
+      const double h = 1e-6;
+      Eigen::Matrix2d J_num;
+      for (int k = 0; k < 2; ++k) {
+        OtherCameraPrediction plus, minus;
+        REQUIRE(PredictInOtherCamera(camera2, T21, BearingBoxPlus(mu, Eigen::Vector2d::Unit(k) * h),
+                                     rho, &plus));
+        REQUIRE(PredictInOtherCamera(camera2, T21, BearingBoxPlus(mu, -Eigen::Vector2d::Unit(k) * h),
+                                     rho, &minus));
+        J_num.col(k) = (plus.pixel - minus.pixel) / (2 * h);
+      }
+      OtherCameraPrediction plus, minus;
+      REQUIRE(PredictInOtherCamera(camera2, T21, mu, rho + h, &plus));
+      REQUIRE(PredictInOtherCamera(camera2, T21, mu, rho - h, &minus));
+      const Eigen::Vector2d J_rho_num = (plus.pixel - minus.pixel) / (2 * h);
+      INFO("rho " << rho << " J\n" << p.J_pixel_bearing << "\nnumeric\n" << J_num);
+      CHECK((p.J_pixel_bearing - J_num).norm() < 1e-5 * (1.0 + J_num.norm()));
+      CHECK((p.J_pixel_rho - J_rho_num).norm() < 1e-5 * (1.0 + J_rho_num.norm()));
+      // A wrong block is detected: the Jacobian without the rotation R_C2_C1.
+      const Eigen::Matrix2d wrong = p.J_pixel_m * BearingBasis(mu);
+      CHECK((wrong - J_num).norm() > 1e-3);
+      // The warp d pixel_2 / d pixel_1 at extraction (A = I) against moving the pixel in C1.
+      const Camera camera1 = DistortedCamera();
+      Eigen::Vector2d px1;
+      REQUIRE(camera1.Project(mu, &px1) == Camera::ProjectionResult::kValid);
+      Eigen::Vector3d mu1;
+      Eigen::Matrix<double, 3, 2> J_mu_px;
+      REQUIRE(camera1.Unproject(px1, &mu1, &J_mu_px));
+      const Eigen::Matrix2d D = BearingBasis(mu1).transpose() * J_mu_px;
+      OtherCameraPrediction at1;
+      REQUIRE(PredictInOtherCamera(camera2, T21, mu1, rho, &at1));
+      const Eigen::Matrix2d W = OtherCameraWarp(at1, Eigen::Matrix2d::Identity(), D);
+      Eigen::Matrix2d W_num;
+      const double hp = 1e-4;
+      for (int k = 0; k < 2; ++k) {
+        Eigen::Vector3d mp, mm;
+        REQUIRE(camera1.Unproject(px1 + Eigen::Vector2d::Unit(k) * hp, &mp));
+        REQUIRE(camera1.Unproject(px1 - Eigen::Vector2d::Unit(k) * hp, &mm));
+        OtherCameraPrediction a, b;
+        REQUIRE(PredictInOtherCamera(camera2, T21, mp, rho, &a));
+        REQUIRE(PredictInOtherCamera(camera2, T21, mm, rho, &b));
+        W_num.col(k) = (a.pixel - b.pixel) / (2 * hp);
+      }
+      CHECK((W - W_num).norm() < 1e-4 * (1.0 + W_num.norm()));
+    }
+  }
+}
+
+TEST_CASE("a stereo match recovers the inverse distance of a textured plane") {
+  const PlaneScene scene(2, /*start_time=*/10.0);  // static
+  const cv::Mat left = scene.Render(0.0, 0), right = scene.Render(0.0, 1);
+  ImagePyramid p1, p2;
+  PatchOptions patch_options;
+  p1.Build(left, patch_options.num_levels);
+  p2.Build(right, patch_options.num_levels);
+  const Camera& camera = scene.rig().cameras[0].camera;
+  const Transformation T21 =
+      scene.rig().cameras[1].T_I_C.inverse() * scene.rig().cameras[0].T_I_C;
+  StereoMatchOptions options;
+  int found = 0;
+  for (const Eigen::Vector2d& px : {Eigen::Vector2d(100, 80), Eigen::Vector2d(160, 120),
+                                    Eigen::Vector2d(220, 170), Eigen::Vector2d(60, 190)}) {
+    MultilevelPatch patch;
+    REQUIRE(patch.Extract(p1, px, Eigen::Matrix2d::Identity(), patch_options));
+    Eigen::Vector3d mu;
+    Eigen::Matrix<double, 3, 2> J_mu_px;
+    REQUIRE(camera.Unproject(px, &mu, &J_mu_px));
+    const Eigen::Matrix2d D = BearingBasis(mu).transpose() * J_mu_px;
+    const StereoMatch m = MatchInOtherCamera(patch, D, p2, camera, T21, mu, options);
+    const double rho_true = mu.z() / PlaneScene::kPlaneZ;  // the plane is 3 m above C1
+    INFO("pixel " << px.transpose() << " rho " << m.rho << " true " << rho_true << " sigma "
+                  << m.rho_sigma);
+    REQUIRE(m.found);
+    ++found;
+    CHECK(std::abs(m.rho - rho_true) < 0.02);  // 1/3 m^-1 +- 6 %
+    CHECK(m.rho_sigma < 0.05);
+    CHECK(std::abs(m.rho - rho_true) < 4.0 * m.rho_sigma);
+  }
+  CHECK(found == 4);
+  // A patch that is not in the second image (texture replaced) is not matched.
+  cv::Mat blank(right.size(), CV_8U, cv::Scalar(128));
+  ImagePyramid pb;
+  pb.Build(blank, patch_options.num_levels);
+  MultilevelPatch patch;
+  REQUIRE(patch.Extract(p1, Eigen::Vector2d(160, 120), Eigen::Matrix2d::Identity(), patch_options));
+  Eigen::Vector3d mu;
+  Eigen::Matrix<double, 3, 2> J_mu_px;
+  REQUIRE(camera.Unproject(Eigen::Vector2d(160, 120), &mu, &J_mu_px));
+  CHECK_FALSE(MatchInOtherCamera(patch, BearingBasis(mu).transpose() * J_mu_px, pb, camera, T21,
+                                 mu, options)
+                  .found);
+}
+
+// Runs the filter over the scene (stereo or mono) and returns the final position error [m].
+double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, double seconds,
+                      VioFilter** out_filter, VioFilter* filter) {
+  const int64_t imu_dt = 5'000'000, cam_dt = 50'000'000;
+  int64_t next_imu = 0;
+  double t_init = -1.0;
+  for (int i = 0; i <= static_cast<int>(seconds * 20); ++i) {
+    const int64_t t_cam = i * cam_dt;
+    for (; next_imu <= t_cam + imu_dt; next_imu += imu_dt) filter->AddImu(scene.Imu(next_imu));
+    const double t = static_cast<double>(t_cam) * 1e-9;
+    const FrameResult r = options.stereo.enabled
+                              ? filter->AddImage(t_cam, scene.Render(t, 0), scene.Render(t, 1))
+                              : filter->AddImage(t_cam, scene.Render(t, 0));
+    CHECK_FALSE(r.reset);
+    if (r.initialized_now) t_init = t;
+  }
+  *out_filter = filter;
+  return (filter->state().p_W_I - (scene.Position(seconds) - scene.Position(t_init))).norm();
+}
+
+TEST_CASE("stereo: new features start at the matched depth and the motion is tracked") {
+  const PlaneScene scene(2);
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  FilterOptions stereo = options;
+  stereo.stereo.enabled = true;
+  VioFilter mono_filter(scene.rig(), 0, options), stereo_filter(scene.rig(), 0, stereo);
+  VioFilter* f = nullptr;
+  const double mono_error = RunStereoScene(scene, options, 3.0, &f, &mono_filter);
+  const double stereo_error = RunStereoScene(scene, stereo, 3.0, &f, &stereo_filter);
+  const FilterStats& s = stereo_filter.stats();
+  INFO("final error mono " << mono_error << " m, stereo " << stereo_error << " m; stereo updates "
+                           << s.stereo_updates << " (" << s.stereo_rejections << " not), matches "
+                           << s.stereo_matches << " (" << s.stereo_match_failures << " not)");
+  CHECK(s.stereo_matches >= 12);
+  CHECK(s.stereo_matches > 4 * s.stereo_match_failures);
+  CHECK(s.stereo_updates > s.updates / 2);
+  CHECK(mono_filter.stats().stereo_updates == 0);
+  CHECK(stereo_error < 0.05);
+  // Every tracked feature's depth is right (the plane at 3 m), also the recently added ones.
+  int checked = 0;
+  for (const FeatureState& feature : stereo_filter.state().features) {
+    if (!feature.active) continue;
+    const Eigen::Vector3d mu_W = stereo_filter.state().q_W_I * feature.mu_C;
+    const double rho_true = mu_W.z() / (PlaneScene::kPlaneZ - stereo_filter.state().p_W_I.z());
+    CHECK(std::abs(feature.rho - rho_true) < 0.1 * rho_true);
+    ++checked;
+  }
+  CHECK(checked >= 6);
+  // Stereo is deterministic too.
+  VioFilter again(scene.rig(), 0, stereo);
+  RunStereoScene(scene, stereo, 1.0, &f, &again);
+  VioFilter again2(scene.rig(), 0, stereo);
+  RunStereoScene(scene, stereo, 1.0, &f, &again2);
+  CHECK(again.state().p_W_I == again2.state().p_W_I);
+}
+
+TEST_CASE("stereo options are checked against the rig") {
+  const PlaneScene mono;
+  FilterOptions options;
+  options.stereo.enabled = true;
+  CHECK_THROWS_WITH(VioFilter(mono.rig(), 0, options), Catch::Contains("stereo.camera"));
+  const PlaneScene stereo(2);
+  options.stereo.camera = 0;
+  CHECK_THROWS_WITH(VioFilter(stereo.rig(), 0, options), Catch::Contains("other than the VIO camera"));
+  options.stereo.camera = 1;
+  options.stereo.max_inverse_depth = 0.0;
+  CHECK_THROWS_WITH(VioFilter(stereo.rig(), 0, options),
+                    Catch::Contains("stereo.max_inverse_depth"));
+}
+
+TEST_CASE("the pipeline pairs stereo frames for the filter") {
+  const PlaneScene scene(2);
+  VioPipelineOptions options;
+  options.filter.features.max_features = 10;
+  options.filter.features.detect_below = 8;
+  options.filter.stereo.enabled = true;
+  VioPipeline pipeline(scene.rig(), options);
+  VioFrameOutput out;
+  int64_t next_imu = 0;
+  int stereo_updated = 0;
+  for (int i = 0; i < 16; ++i) {
+    const int64_t t_cam = i * 50'000'000;
+    for (; next_imu <= t_cam + 5'000'000; next_imu += 5'000'000) pipeline.AddImu(scene.Imu(next_imu));
+    const double t = static_cast<double>(t_cam) * 1e-9;
+    pipeline.AddImage(1, t_cam, scene.Render(t, 1));  // the second camera first
+    if (i != 9) pipeline.AddImage(0, t_cam, scene.Render(t, 0));  // cam0 drops frame 9
+    while (pipeline.NextOutput(&out)) stereo_updated += out.filter.num_stereo_updated;
+  }
+  CHECK(stereo_updated > 50);
+  CHECK(pipeline.stage().counters().frames_without_vio_camera == 1);
+  CHECK(pipeline.stage().filter().stats().stereo_matches > 0);
+}
+
+}  // namespace
+}  // namespace vilma::estimator
