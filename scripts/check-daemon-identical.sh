@@ -11,8 +11,9 @@
 # saved map's files with their checksums, and compares all of it with a reference recorded
 # before (diff; exit 1 on a difference).
 #
-# Usage: scripts/check-daemon-identical.sh [--record] [--bin DIR] [--out DIR]
-#   --record   write the reference ($VILMA_CACHE/issue19/before) instead of comparing with it
+# Usage: scripts/check-daemon-identical.sh [--record] [--ref DIR] [--bin DIR] [--out DIR]
+#   --record   write the reference instead of comparing with it
+#   --ref DIR  the reference (default $VILMA_CACHE/issue19/before)
 #   --bin DIR  folder with vilma-estimatord (default build/bin)
 #   --out DIR  where this run's outputs go (default $VILMA_CACHE/issue19/after)
 # Inputs: the demo's logs ($VILMA_CACHE/demo/map-then-localize/session{0,1}.lcmlog, made by
@@ -30,6 +31,7 @@ record=0
 while [ $# -gt 0 ]; do
   case $1 in
     --record) record=1 ;;
+    --ref) ref=$2; shift ;;
     --bin) bin=$2; shift ;;
     --out) out=$2; shift ;;
     -h|--help) sed -n '2,/^set -e/p' "$0" | sed '$d; s/^# \{0,1\}//'; exit 0 ;;
