@@ -204,7 +204,7 @@ TEST_CASE("pipeline options are validated with clear errors") {
   CHECK_THROWS_WITH(VioPipeline(mono.rig(), options), Catch::Contains("sync."));
 }
 
-TEST_CASE("two synchronized cameras: frames carry both images; frames without cam0 are counted") {
+TEST_CASE("two synchronized cameras: frames carry both images, frames without cam0 are counted") {
   const PlaneScene scene(2);
   VioPipelineOptions options;
   options.filter = SmallOptions();
