@@ -1,6 +1,7 @@
 #include "vilma/drivers/pose_log.h"
 
 #include <cmath>
+#include <exception>
 #include <vilma/localization_t.hpp>
 #include <vilma/pose_t.hpp>
 
@@ -21,6 +22,18 @@ bool PoseOf(const double position[3], const double orientation_wxyz[4], Transfor
   return true;
 }
 
+// lcm-gen's decoders check a string's length against the buffer but throw std::length_error
+// for a length <= 0 (they assign length - 1 bytes): a corrupted event is then malformed, not
+// the end of the tool.
+template <typename Msg>
+bool Decodes(Msg* msg, const LcmLogEvent& event) {
+  try {
+    return msg->decode(event.data.data(), 0, static_cast<int>(event.data.size())) >= 0;
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
 // Calls on_message(msg) for every message on `channel` that decodes as Msg, in log order;
 // counts the channel's events and the ones that do not decode.
 template <typename Msg, typename Fn>
@@ -32,7 +45,7 @@ void ForEachMessage(const std::string& path, const std::string& channel,
     if (event.channel != channel) continue;
     ++*events_on_channel;
     Msg msg;
-    if (msg.decode(event.data.data(), 0, static_cast<int>(event.data.size())) < 0) {
+    if (!Decodes(&msg, event)) {
       ++*malformed;
       continue;
     }
@@ -70,11 +83,10 @@ PoseLogType DetectPoseLogType(const std::string& path, const std::string& channe
     if (event.channel != channel) continue;
     seen = true;
     // decode() checks the fingerprint (the type's hash in the first 8 bytes) first.
-    const int size = static_cast<int>(event.data.size());
     pose_t pose;
-    if (pose.decode(event.data.data(), 0, size) >= 0) return PoseLogType::kPose;
+    if (Decodes(&pose, event)) return PoseLogType::kPose;
     localization_t loc;
-    if (loc.decode(event.data.data(), 0, size) >= 0) return PoseLogType::kLocalization;
+    if (Decodes(&loc, event)) return PoseLogType::kLocalization;
   }
   return seen ? PoseLogType::kOther : PoseLogType::kEmpty;
 }
