@@ -4,7 +4,8 @@
 # the sensors, and from the ground-truth state with --initial-state: the row "+given"), and
 # prints one table (docs/benchmarks.md, "VIO"). Sets that do not exist are listed as missing.
 #
-# Usage: scripts/bench-vio.sh [--config FILE] [--keep DIR]
+# Usage: scripts/bench-vio.sh [--config FILE] [--keep DIR] [--stereo]
+#   --stereo  also the rows "+stereo": vilma vio --stereo (cam0 + cam1) on every set
 #   VILMA_BUILD_DIR  build folder with bin/vilma (default <repo>/build)
 #   VILMA_CACHE      cache folder; the sets are in $VILMA_CACHE/datasets (default ~/.cache/vilma)
 #   VILMA_SHARED_DATA_DIR  real data (default <repo>/../shared/data)
@@ -22,11 +23,13 @@ shared_dir="${VILMA_SHARED_DATA_DIR:-$repo_dir/../shared/data}"
 vilma="$build_dir/bin/vilma"
 config_args=()
 keep=""
+stereo=0
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --config) config_args=(--config "$2"); shift 2 ;;
     --keep) keep="$2"; shift 2 ;;
-    -h|--help) sed -n '2,16p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --stereo) stereo=1; shift ;;
+    -h|--help) sed -n '2,17p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-vio.sh: unknown argument '$1' (see --help)" >&2; exit 2 ;;
   esac
 done
@@ -37,15 +40,21 @@ mkdir -p "$work"
 [[ -n "$keep" ]] || trap 'rm -rf "$work"' EXIT
 
 names=(room-easy room-fast hall street euroc_V1_01_micro euroc_V1_01_moving euroc_V1_01_moving+given)
+# "+stereo": the same set with `vilma vio --stereo` (cam0 + cam1; docs/estimator.md "Stereo").
+if [[ "$stereo" == 1 ]]; then
+  names+=(room-easy+stereo room-fast+stereo hall+stereo street+stereo euroc_V1_01_micro+stereo
+          euroc_V1_01_moving+stereo euroc_V1_01_moving+given+stereo)
+fi
 rows=()
 missing=()
 for name in "${names[@]}"; do
-  set_name="${name%+given}"
+  set_name="${name%+stereo}"; set_name="${set_name%+given}"
   if [[ "$name" == euroc_* ]]; then dir="$shared_dir/$set_name"; else dir="$datasets_dir/$set_name"; fi
   if [[ ! -d "$dir/mav0" ]]; then missing+=("$name ($dir)"); continue; fi
   gt="$dir/mav0/state_groundtruth_estimate0/data.csv"
   start_args=()
-  [[ "$name" == *+given ]] && start_args=(--initial-state "$gt")
+  [[ "$name" == *+given* ]] && start_args=(--initial-state "$gt")
+  [[ "$name" == *+stereo ]] && start_args+=(--stereo)
   "$vilma" vio "$dir" "${config_args[@]}" "${start_args[@]}" --out "$work/$name.txt" \
       --log-timing "$work/$name.timing.csv" > "$work/$name.vio.out" 2> "$work/$name.vio.err" || {
     echo "bench-vio.sh: vilma vio failed on $name:" >&2; cat "$work/$name.vio.err" >&2; exit 1; }
