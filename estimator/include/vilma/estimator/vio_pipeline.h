@@ -31,8 +31,8 @@
 
 namespace vilma::estimator {
 
-// The values are those of vilma.pose_t's status (INITIALIZING 0, TRACKING 1, LOST 2).
-enum class TrackingStatus : int32_t { kInitializing = 0, kTracking = 1, kLost = 2 };
+// The values are those of vilma.pose_t's status (INITIALIZING 1, TRACKING 2, LOST 4).
+enum class TrackingStatus : int32_t { kInitializing = 1, kTracking = 2, kLost = 4 };
 
 // One frame's estimate as published (VILMA_ODOM) and written (vilma vio's TUM file): the one
 // FilterState -> pose conversion.
