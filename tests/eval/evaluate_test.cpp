@@ -9,39 +9,12 @@
 
 #include "vilma/core/error.h"
 #include "test_skip.h"
+#include "eval/test_trajectories.h"
 
 namespace vilma {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180.0;
-
-Eigen::Quaterniond Rz(double a) { return Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitZ())); }
-Eigen::Quaterniond Rx(double a) { return Eigen::Quaterniond(Eigen::AngleAxisd(a, Eigen::Vector3d::UnitX())); }
-
-// A 3D loop with changing heading, roll and pitch: 400 poses at 10 Hz, ~100 m of path.
-Trajectory MakeLoop(std::size_t n = 400) {
-  Trajectory t;
-  for (std::size_t i = 0; i < n; ++i) {
-    const double s = 0.1 * static_cast<double>(i);  // [s]
-    const Eigen::Vector3d p(8.0 * std::cos(0.25 * s), 5.0 * std::sin(0.5 * s),
-                            1.0 + 0.5 * std::sin(0.3 * s));
-    const Eigen::Quaterniond q =
-        ExpSO3(Eigen::Vector3d(0.1 * std::sin(0.7 * s), 0.05 * std::cos(0.4 * s), 0.25 * s));
-    t.Add(1000000000 + static_cast<int64_t>(i) * 100000000, Transformation(q, p));
-  }
-  return t;
-}
-
-// est = S_E_G applied to every pose of gt: T_E_B = (R R_G_B, s R p_G_B + t).
-Trajectory Transform(const Trajectory& gt, const Transformation& T_E_G, double scale) {
-  Trajectory est = gt;
-  for (auto& T : est.T_W_B) {
-    T = Transformation(T_E_G.rotation() * T.rotation(),
-                       scale * (T_E_G.rotation() * T.translation()) + T_E_G.translation());
-  }
-  return est;
-}
+using namespace eval_test;  // NOLINT: the shared test trajectories
 
 EvalOptions Options(AlignmentType type) {
   EvalOptions o;
@@ -50,90 +23,6 @@ EvalOptions Options(AlignmentType type) {
 }
 
 }  // namespace
-
-TEST_CASE("ComputeErrorStats by hand", "[eval]") {
-  const ErrorStats s = ComputeErrorStats({4.0, 1.0, 3.0, 2.0});
-  CHECK(s.count == 4);
-  CHECK(s.mean == 2.5);
-  CHECK(s.median == 2.5);
-  CHECK(s.rmse == Approx(std::sqrt(7.5)));
-  CHECK(s.min == 1.0);
-  CHECK(s.max == 4.0);
-  CHECK(s.std_dev == Approx(std::sqrt(1.25)));
-  CHECK(ComputeErrorStats({3.0, 1.0, 2.0}).median == 2.0);
-  CHECK(ComputeErrorStats({}).count == 0);
-}
-
-TEST_CASE("association, unique rule: tolerance, nearest first, each gt once", "[eval]") {
-  Trajectory gt, est;
-  for (int64_t ms : {0, 100, 200, 300, 400}) gt.Add(ms * 1000000, Transformation());
-  // 3 -> 0; 95 and 102 compete for 100: 102 is nearer and wins, 95 has no other gt in reach;
-  // 105 would be 5 ms from 100 but 100 is taken -> dropped; 250 is 50 ms from anything;
-  // 409 -> 400 (9 ms).
-  for (int64_t ms : {3, 95, 102, 105, 250, 409}) est.Add(ms * 1000000, Transformation());
-  AssociationOptions options;  // 10 ms
-  options.rule = AssociationRule::kUnique;
-  const Association a = AssociateTrajectories(gt, est, options);
-  CHECK_FALSE(a.by_index);
-  CHECK(a.est_index == std::vector<std::size_t>{0, 2, 5});
-  CHECK(a.gt_index == std::vector<std::size_t>{0, 1, 4});
-
-  options.max_dt_s = 0.005;  // 409 is now too far
-  const Association b = AssociateTrajectories(gt, est, options);
-  CHECK(b.est_index == std::vector<std::size_t>{0, 2});
-  CHECK(b.gt_index == std::vector<std::size_t>{0, 1});
-
-  options.max_dt_s = -1.0;
-  CHECK_FALSE(options.Validate().empty());
-}
-
-TEST_CASE("association, evo rule: the shorter side walks, nearest stamp, ties to the earlier",
-          "[eval]") {
-  AssociationOptions options;
-  CHECK(options.rule == AssociationRule::kEvo);  // the default
-  Trajectory gt, est;
-  for (int64_t ms : {0, 10, 20, 30, 100}) gt.Add(ms * 1000000, Transformation());
-  // Estimate shorter: each estimate stamp takes its nearest gt stamp. 5 is 5 ms from both 0
-  // and 10: the earlier wins (numpy's argmin); 8 and 12 both take 10 (a gt pose used twice);
-  // 60 is 30 ms from the nearest (30): dropped.
-  for (int64_t ms : {5, 8, 12, 60}) est.Add(ms * 1000000, Transformation());
-  Association a = AssociateTrajectories(gt, est, options);
-  CHECK(a.est_index == std::vector<std::size_t>{0, 1, 2});
-  CHECK(a.gt_index == std::vector<std::size_t>{0, 1, 1});
-
-  // Estimate longer than gt: gt walks. gt 0 -> est 1 (1 ms), gt 50 -> nothing within 10 ms,
-  // gt 100 -> est 99 (1 ms) and not 91; est 1, 2, 91 are left out.
-  Trajectory gt2, est2;
-  for (int64_t ms : {0, 50, 100}) gt2.Add(ms * 1000000, Transformation());
-  for (int64_t ms : {1, 2, 91, 99}) est2.Add(ms * 1000000, Transformation());
-  a = AssociateTrajectories(gt2, est2, options);
-  CHECK(a.gt_index == std::vector<std::size_t>{0, 2});
-  CHECK(a.est_index == std::vector<std::size_t>{0, 3});
-
-  // Equally long: the estimate walks (evo's traj_2 is the short one unless strictly longer).
-  Trajectory gt3, est3;
-  for (int64_t ms : {0, 4}) gt3.Add(ms * 1000000, Transformation());
-  for (int64_t ms : {1, 2}) est3.Add(ms * 1000000, Transformation());
-  a = AssociateTrajectories(gt3, est3, options);
-  CHECK(a.gt_index == std::vector<std::size_t>{0, 0});  // 1 -> 0, 2 -> 0 (tie 2 vs 2: earlier)
-  CHECK(a.est_index == std::vector<std::size_t>{0, 1});
-
-  AssociationRule rule = AssociationRule::kUnique;
-  CHECK(ParseAssociationRule("evo", &rule));
-  CHECK(rule == AssociationRule::kEvo);
-  CHECK_FALSE(ParseAssociationRule("nearest", &rule));
-}
-
-TEST_CASE("association by index when a trajectory has no stamps (KITTI)", "[eval]") {
-  Trajectory gt = MakeLoop(10);
-  gt.has_timestamps = false;
-  const Trajectory est = MakeLoop(8);
-  const Association a = AssociateTrajectories(gt, est, AssociationOptions{});
-  CHECK(a.by_index);
-  REQUIRE(a.size() == 8);
-  CHECK(a.gt_index[7] == 7);
-  CHECK(a.est_index[7] == 7);
-}
 
 TEST_CASE("SE3 and Sim3 alignment recover a known transformation", "[eval]") {
   const Trajectory gt = MakeLoop();
@@ -215,39 +104,6 @@ TEST_CASE("roll/pitch error: a tilt of the estimate's world, blind to yaw", "[ev
   CHECK(r.ate.roll_pitch_errors_deg[7] == Approx(2.0).margin(1e-9));
   CHECK(r.ate.roll_pitch_errors_deg[6] < 1e-9);
   CHECK(r.ate.roll_pitch_deg.max == Approx(2.0).margin(1e-9));
-}
-
-TEST_CASE("GravityYaw is the yaw closest to a rotation; roll/pitch does not leak", "[eval]") {
-  // Pure swings (rotations about horizontal axes) have no yaw.
-  for (double axis_deg : {0.0, 30.0, 90.0, 135.0, -60.0}) {
-    const Eigen::Vector3d u(std::cos(axis_deg * kDeg), std::sin(axis_deg * kDeg), 0.0);
-    for (double beta_deg : {-40.0, 5.0, 89.0, 170.0}) {
-      const Eigen::Quaterniond S(Eigen::AngleAxisd(beta_deg * kDeg, u));
-      INFO("axis " << axis_deg << " deg, swing " << beta_deg << " deg");
-      CHECK(std::abs(GravityYaw(S)) < 1e-12);
-      for (double yaw_deg : {-170.0, -45.0, 0.0, 30.0, 120.0}) {
-        CHECK(GravityYaw(Rz(yaw_deg * kDeg) * S) == Approx(yaw_deg * kDeg).margin(1e-12));
-        CHECK(GravityYaw(S * Rz(yaw_deg * kDeg)) == Approx(yaw_deg * kDeg).margin(1e-12));
-      }
-    }
-  }
-  // For any rotation it minimizes the angle of Rz(theta)^T R: no theta on a 0.01 deg grid is
-  // better.
-  std::mt19937 rng(7);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  for (int trial = 0; trial < 20; ++trial) {
-    const Eigen::Quaterniond R =
-        ExpSO3(Eigen::Vector3d(u(rng), u(rng), 3.0 * u(rng)));
-    const double yaw = GravityYaw(R);
-    const double best = AngleBetween(Rz(yaw), R);
-    double grid_best = 10.0;
-    for (int i = -18000; i < 18000; ++i) {
-      grid_best = std::min(grid_best, AngleBetween(Rz(i * 0.01 * kDeg), R));
-    }
-    INFO("trial " << trial);
-    CHECK(best <= grid_best + 1e-12);
-    CHECK(best > grid_best - 0.01 * kDeg);  // the grid gets close to it
-  }
 }
 
 TEST_CASE("align first: the yaw + translation of the first matched pose", "[eval]") {
