@@ -23,6 +23,7 @@
 
 #include "vilma/core/timing.h"
 #include "vilma/drivers/lcm_convert.h"
+#include "vilma/drivers/lcm_safe_decode.h"
 #include "vilma/drivers/lcm_url.h"
 
 namespace {
@@ -48,7 +49,32 @@ struct Probe {
     image_recv_ns[utime] = SteadyNs();
     ++images;
   }
-  void OnOdom(const lcm::ReceiveBuffer*, const std::string&, const vilma::pose_t* msg) {
+  // Raw subscriptions: lcm-gen's typed decoders throw (or allocate what a count claims) on
+  // hostile bytes, which would end the probe (lcm_safe_decode.h). Malformed messages are counted.
+  int64_t malformed = 0;
+  void OnOdomBytes(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+    vilma::pose_t msg;
+    bool ok = false;
+    try {
+      ok = msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) ==
+           static_cast<int>(rbuf->data_size);
+    } catch (const std::exception&) {  // a string length lcm-gen does not check
+    }
+    if (!ok) {
+      ++malformed;
+      return;
+    }
+    OnOdom(&msg);
+  }
+  void OnStatusBytes(const lcm::ReceiveBuffer* rbuf, const std::string&) {
+    vilma::status_t msg;
+    if (!vilma::DecodeStatusMessage(rbuf->data, static_cast<int>(rbuf->data_size), &msg).empty()) {
+      ++malformed;
+      return;
+    }
+    OnStatus(&msg);
+  }
+  void OnOdom(const vilma::pose_t* msg) {
     const int64_t now = SteadyNs();
     last_odom_ns = now;
     ++odom;
@@ -60,7 +86,7 @@ struct Probe {
     latency_ms.push_back(static_cast<double>(now - it->second) * 1e-6);
     image_recv_ns.erase(image_recv_ns.begin(), std::next(it));
   }
-  void OnStatus(const lcm::ReceiveBuffer*, const std::string&, const vilma::status_t* msg) {
+  void OnStatus(const vilma::status_t* msg) {
     for (int i = 0; i < msg->num_counters; ++i) last_counters[msg->counter_names[i]] = msg->counter_values[i];
     for (int i = 0; i < msg->num_metrics; ++i) {
       // Only reports while frames flow (the first and the last include idle time).
@@ -110,8 +136,8 @@ int main(int argc, char** argv) {
   }
   Probe probe;
   lcm.subscribe(camera, &Probe::OnImage, &probe);
-  lcm.subscribe(odom, &Probe::OnOdom, &probe);
-  lcm.subscribe(status, &Probe::OnStatus, &probe);
+  lcm.subscribe(odom, &Probe::OnOdomBytes, &probe);
+  lcm.subscribe(status, &Probe::OnStatusBytes, &probe);
   std::cout << "listening" << std::endl;
   const int64_t start = SteadyNs();
   while (true) {
@@ -128,6 +154,7 @@ int main(int argc, char** argv) {
   std::printf("latency_ms p50 %.2f p99 %.2f max %.2f\n", Percentile(probe.latency_ms, 0.5),
               Percentile(probe.latency_ms, 0.99), Percentile(probe.latency_ms, 1.0));
   std::printf("status_cpu_load %.3f\n", cpu);
+  std::printf("probe_malformed %lld\n", static_cast<long long>(probe.malformed));
   for (const char* name : {"drops", "malformed_messages", "frames_filtered", "images_received",
                            "imu_received", "filter_resets"}) {
     std::printf("%s %lld\n", name, static_cast<long long>(probe.last_counters[name]));
