@@ -7,6 +7,19 @@
 
 namespace vilma::daemon {
 
+namespace {
+
+PoseStatus ToPoseStatus(estimator::TrackingStatus s) {
+  switch (s) {
+    case estimator::TrackingStatus::kInitializing: return kPoseInitializing;
+    case estimator::TrackingStatus::kTracking: return kPoseTracking;
+    case estimator::TrackingStatus::kLost: return kPoseLost;
+  }
+  return kPoseInvalid;
+}
+
+}  // namespace
+
 FilterStage::FilterStage(const FilterStageOptions& options, const SensorRig& rig,
                          Pipeline* pipeline, Spsc<OutputItem>* output)
     : options_(options),
@@ -14,7 +27,7 @@ FilterStage::FilterStage(const FilterStageOptions& options, const SensorRig& rig
       p_(*pipeline),
       queue_(static_cast<std::size_t>(options.queue_capacity)),
       output_(*output),
-      filter_(std::make_unique<estimator::VioFilter>(rig, options.vio_camera, options.estimator)) {}
+      vio_(rig, options.vio_camera, options.estimator) {}
 
 void FilterStage::ConnectMap(const MappingOptions& options, MapStage* stage) {
   map_ = std::make_unique<MapFeeder>(options, &p_, stage);
@@ -23,15 +36,6 @@ void FilterStage::ConnectMap(const MappingOptions& options, MapStage* stage) {
 void FilterStage::ConnectLoc(const LocalizationOptions& options, LocStage* stage) {
   const double camera_rate = rig_.cameras[static_cast<std::size_t>(options_.vio_camera)].rate_hz;
   loc_ = std::make_unique<LocClient>(options, camera_rate, &p_, stage, &output_);
-}
-
-// A time jump: a new filter, a new M frame (a new mission, T_G_M unknown again).
-void FilterStage::Restart() {
-  resets_before_restart_ += filter_->stats().resets;
-  filter_ = std::make_unique<estimator::VioFilter>(rig_, options_.vio_camera, options_.estimator);
-  ever_initialized_ = false;
-  if (map_) map_->EndMission();
-  if (loc_) loc_->NewMFrame();
 }
 
 void FilterStage::OnFrame(FilterItem& item) {
@@ -47,33 +51,34 @@ void FilterStage::OnFrame(FilterItem& item) {
   if (frames_ == options_.fault_reset_at) {
     // Fault injection (--fault-reset-filter-at): the filter resets as on a failed health check
     // (at this frame, or at the first initialized one after it).
-    filter_->RequestReset("fault injection (--fault-reset-filter-at)");
+    vio_.RequestReset("fault injection (--fault-reset-filter-at)");
     std::fprintf(stderr, "vilma-estimatord: fault injection: filter reset at frame %lld\n",
                  static_cast<long long>(frames_));
   }
   OutputItem out;
   out.filter_start_ns = SteadyNs();
-  const estimator::FrameResult r = filter_->AddImage(item.t_cam_ns, item.image);
+  const estimator::VioFrameOutput o = vio_.AddFrame(item.t_cam_ns, item.image);
   out.filtered_steady_ns = SteadyNs();
+  const estimator::FrameResult& r = o.filter;
+  const estimator::VioPose& pose = o.pose;
   cv::Mat loc_image;  // LOC mode: the image may go to the localizer
   if (loc_) loc_image = item.image;
   item.image.release();  // back to the pool
   frames_in_flight_.fetch_sub(1);
   ++frames_;
   p_.counters.Add(kFramesFiltered);
-  p_.counters.Set(kFilterResets, resets_before_restart_ + filter_->stats().resets);
+  p_.counters.Set(kFilterResets, vio_.counters().resets);
   if (r.reset) p_.log(10, "filter reset: %s", r.reset_reason.c_str());
   const bool tracked = r.pose_valid && !r.reset;
   if (map_) {
     if (r.reset) map_->EndMission();  // the filter re-initializes: a new M frame
     if (tracked) {
-      const estimator::FilterState& x = filter_->state();
       mapping::FrameState state;
-      state.t_ns = r.t_ns;
-      state.T_M_I = r.T_M_I;
-      state.v_M = x.v_W;  // the filter's world frame W is the mission frame M
-      state.gyro_bias = x.b_g;
-      state.accel_bias = x.b_a;
+      state.t_ns = pose.t_ns;
+      state.T_M_I = pose.T_M_I;
+      state.v_M = pose.v_M;
+      state.gyro_bias = pose.gyro_bias;
+      state.accel_bias = pose.accel_bias;
       map_->OfferFrame(state, &item.map_images);
     }
   }
@@ -81,55 +86,36 @@ void FilterStage::OnFrame(FilterItem& item) {
   if (loc_) {
     if (r.reset) loc_->NewMFrame();  // the filter re-initializes: a new M frame
     loc_->ApplyResults();            // live: results that came back since the last frame
-    if (tracked) loc_->OnTrackedFrame(r.t_ns, r.T_M_I, loc_image);
+    if (tracked) loc_->OnTrackedFrame(pose.t_ns, pose.T_M_I, loc_image);
     loc_image.release();
     // VILMA_POSE: T_G_I = T_G_M T_M_I (its covariance below).
-    if (tracked && loc_->initialized()) loc_->FillGlobalPose(r.T_M_I, filter_->state().v_W, &out);
+    if (tracked && loc_->initialized()) loc_->FillGlobalPose(pose.T_M_I, pose.v_M, &out);
   }
-  if (r.pose_valid) ever_initialized_ = true;
-  int32_t status = kPoseInitializing;
-  if (r.reset || (!r.pose_valid && ever_initialized_)) {
-    status = kPoseLost;
-  } else if (r.pose_valid) {
-    status = kPoseTracking;
-  }
-  out.status = status;
+  out.status = ToPoseStatus(pose.status);
   p_.filter_state.store(out.status, std::memory_order_relaxed);
   p_.features.store(r.num_features, std::memory_order_relaxed);
-  out.t_ns = r.pose_valid
-                 ? r.t_ns
-                 : item.t_cam_ns + rig_.cameras[static_cast<std::size_t>(options_.vio_camera)].time_offset_ns;
+  out.t_ns = pose.t_ns;
   out.features = r.num_features;
   out.recv_steady_ns = item.recv_steady_ns;
   out.recv_latency_us = item.recv_latency_us;
   out.synced_steady_ns = item.synced_steady_ns;
   if (r.pose_valid) {
-    const estimator::FilterState& x = filter_->state();
-    const Eigen::Vector3d& p = r.T_M_I.translation();
-    const Eigen::Quaterniond& q = r.T_M_I.rotation();
-    const Eigen::Vector3d omega_I = last_omega_ - x.b_g;
+    const Eigen::Vector3d& p = pose.T_M_I.translation();
+    const Eigen::Quaterniond& q = pose.T_M_I.rotation();
     for (int i = 0; i < 3; ++i) {
       out.position[i] = p[i];
-      out.velocity[i] = x.v_W[i];
-      out.angular_velocity[i] = omega_I[i];
+      out.velocity[i] = pose.v_M[i];
+      out.angular_velocity[i] = pose.omega_I[i];
     }
     out.orientation[0] = q.w();
     out.orientation[1] = q.x();
     out.orientation[2] = q.y();
     out.orientation[3] = q.z();
-    // The filter's attitude error is right-perturbed (q = q Exp(dtheta), local); pose_t wants
-    // the global (left) error delta = R dtheta. Hence with R = R_M_I:
-    //   Cov = [P_pp, P_pt R^T; R P_tp, R P_tt R^T].
-    const Eigen::MatrixXd& P = filter_->covariance();
-    if (P.rows() >= estimator::kIdxQ + 3) {
-      const Eigen::Matrix3d R = q.toRotationMatrix();
-      Matrix6d C;
-      C.block<3, 3>(0, 0) = P.block<3, 3>(estimator::kIdxP, estimator::kIdxP);
-      C.block<3, 3>(0, 3) = P.block<3, 3>(estimator::kIdxP, estimator::kIdxQ) * R.transpose();
-      C.block<3, 3>(3, 0) = C.block<3, 3>(0, 3).transpose();
-      C.block<3, 3>(3, 3) = R * P.block<3, 3>(estimator::kIdxQ, estimator::kIdxQ) * R.transpose();
-      CopyRowMajor(C, out.covariance);
-      if (out.global) loc_->FillGlobalCovariance(C, &out);
+    // pose.covariance: (position, rotation) with the global (left) rotation error, as pose_t
+    // (VioPose). Only once the filter has its attitude block.
+    if (vio_.filter().covariance().rows() >= estimator::kIdxQ + 3) {
+      CopyRowMajor(pose.covariance, out.covariance);
+      if (out.global) loc_->FillGlobalCovariance(pose.covariance, &out);
     }
   }
   if (!Push(p_, output_, out)) {
@@ -148,11 +134,13 @@ void FilterStage::Run() {
     while (queue_.pop(item)) {
       any = true;
       if (item.kind == FilterItem::Kind::kImu) {
-        filter_->AddImu(item.imu);
-        last_omega_ = item.imu.omega_I;
+        vio_.AddImu(item.imu);
         if (map_) map_->PushImu(item.imu);
       } else if (item.kind == FilterItem::Kind::kRestart) {
-        Restart();
+        // A time jump: a new filter, a new M frame (a new mission, T_G_M unknown again).
+        vio_.Restart();
+        if (map_) map_->EndMission();
+        if (loc_) loc_->NewMFrame();
       } else {
         OnFrame(item);
       }

@@ -1,4 +1,5 @@
-// The filter stage: the VioFilter on the synchronized IMU samples and frames, one pose per
+// The filter stage: estimator::VioFilterStage (the VioFilter and its one FilterState -> pose
+// conversion, shared with `vilma vio`) on the synchronized IMU samples and frames, one pose per
 // frame to the publisher (VILMA_ODOM; VILMA_POSE in LOC mode), the systemd watchdog petted
 // while it makes progress. It also runs the producer sides of the map stage (MapFeeder: the
 // thinning rule, mission breaks at a new M frame) and of the localization stage (LocClient:
@@ -14,7 +15,7 @@
 #include "pipeline.h"
 #include "vilma/core/rig.h"
 #include "vilma/estimator/filter_options.h"
-#include "vilma/estimator/vio_filter.h"
+#include "vilma/estimator/vio_pipeline.h"
 
 namespace vilma::daemon {
 
@@ -45,7 +46,6 @@ class FilterStage {
 
  private:
   void OnFrame(FilterItem& item);
-  void Restart();
 
   const FilterStageOptions options_;
   const SensorRig& rig_;
@@ -53,13 +53,10 @@ class FilterStage {
   Spsc<FilterItem> queue_;
   Spsc<OutputItem>& output_;
   std::atomic<int> frames_in_flight_{0};
-  std::unique_ptr<estimator::VioFilter> filter_;
+  estimator::VioFilterStage vio_;
   std::unique_ptr<MapFeeder> map_;
   std::unique_ptr<LocClient> loc_;
-  bool ever_initialized_ = false;
   int64_t frames_ = 0;
-  int64_t resets_before_restart_ = 0;  // of the filters replaced by restarts
-  Eigen::Vector3d last_omega_ = Eigen::Vector3d::Zero();  // latest gyro sample [rad/s]
 };
 
 }  // namespace vilma::daemon
