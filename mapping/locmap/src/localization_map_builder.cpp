@@ -72,8 +72,12 @@ LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
       const Eigen::Matrix3d R_G_I =
           map.T_G_I(landmark.store_vertex_id).rotation().toRotationMatrix();
       const Eigen::Matrix3d covariance_G = R_G_I * landmark.covariance * R_G_I.transpose();
-      out.p_G_covariance.push_back((0.5 * (covariance_G + covariance_G.transpose())).cast<float>());
-      any_covariance |= !landmark.covariance.isZero(0.0);
+      Eigen::Matrix3f c = (0.5 * (covariance_G + covariance_G.transpose())).cast<float>();
+      // A degenerate triangulation (covariance not finite as floats, or negative variances
+      // from rounding) carries no usable uncertainty: stored as unknown (zero).
+      if (!c.allFinite() || c.diagonal().minCoeff() < 0.0f) c.setZero();
+      out.p_G_covariance.push_back(c);
+      any_covariance |= !c.isZero(0.0f);
       const std::size_t first_observer = out.observer_index.size();
       for (const mapstore::LandmarkObservation* obs : valid) {
         auto [it, inserted] =
