@@ -44,9 +44,9 @@ int FilterState::num_active() const {
 
 void BoxPlus(const FilterState& x, const Eigen::VectorXd& dx, FilterState* r) {
   if (r != &x) *r = x;
-  r->p_W_I = x.p_W_I + dx.segment<3>(kIdxP);
-  r->v_W = x.v_W + dx.segment<3>(kIdxV);
-  r->q_W_I = (x.q_W_I * ExpSO3(dx.segment<3>(kIdxQ))).normalized();
+  r->p_M_I = x.p_M_I + dx.segment<3>(kIdxP);
+  r->v_M = x.v_M + dx.segment<3>(kIdxV);
+  r->q_M_I = (x.q_M_I * ExpSO3(dx.segment<3>(kIdxQ))).normalized();
   r->b_g = x.b_g + dx.segment<3>(kIdxBg);
   r->b_a = x.b_a + dx.segment<3>(kIdxBa);
   r->q_I_C = (x.q_I_C * ExpSO3(dx.segment<3>(kIdxQIC))).normalized();
@@ -62,9 +62,9 @@ void BoxPlus(const FilterState& x, const Eigen::VectorXd& dx, FilterState* r) {
 
 Eigen::VectorXd BoxMinus(const FilterState& a, const FilterState& b) {
   Eigen::VectorXd d = Eigen::VectorXd::Zero(b.dim());
-  d.segment<3>(kIdxP) = a.p_W_I - b.p_W_I;
-  d.segment<3>(kIdxV) = a.v_W - b.v_W;
-  d.segment<3>(kIdxQ) = LogSO3(b.q_W_I.conjugate() * a.q_W_I);
+  d.segment<3>(kIdxP) = a.p_M_I - b.p_M_I;
+  d.segment<3>(kIdxV) = a.v_M - b.v_M;
+  d.segment<3>(kIdxQ) = LogSO3(b.q_M_I.conjugate() * a.q_M_I);
   d.segment<3>(kIdxBg) = a.b_g - b.b_g;
   d.segment<3>(kIdxBa) = a.b_a - b.b_a;
   d.segment<3>(kIdxQIC) = LogSO3(b.q_I_C.conjugate() * a.q_I_C);

@@ -84,8 +84,8 @@ GivenState LoadGivenState(const std::string& path, int64_t t_ns, GivenStateSourc
   const Transformation T = pose_at(t_ns);
   GivenState state;
   state.t_ns = t_ns;
-  state.q_W_I = T.rotation().normalized();
-  state.p_W_I = T.translation();
+  state.q_M_I = T.rotation().normalized();
+  state.p_M_I = T.translation();
   GivenStateSource src;
   if (report.format == TrajectoryFormat::kEuroc && report.columns == 17) {
     const std::vector<Rates> rows = ReadRateColumns(path);
@@ -97,7 +97,7 @@ GivenState LoadGivenState(const std::string& path, int64_t t_ns, GivenStateSourc
       const Rates& b = rows[static_cast<std::size_t>(j) + 1];
       const double alpha =
           static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
-      state.v_W = (1 - alpha) * a.v + alpha * b.v;
+      state.v_M = (1 - alpha) * a.v + alpha * b.v;
       state.b_g = (1 - alpha) * a.b_g + alpha * b.b_g;
       state.b_a = (1 - alpha) * a.b_a + alpha * b.b_a;
       src.velocity_from_file = src.biases_from_file = true;
@@ -108,7 +108,7 @@ GivenState LoadGivenState(const std::string& path, int64_t t_ns, GivenStateSourc
     const int64_t ta = std::max(trajectory.t_ns.front(), t_ns - kDifferenceNs);
     const int64_t tb = std::min(trajectory.t_ns.back(), t_ns + kDifferenceNs);
     if (tb <= ta) throw InputError(FormatInputError(path, "", "poses to difference"));
-    state.v_W = (pose_at(tb).translation() - pose_at(ta).translation()) /
+    state.v_M = (pose_at(tb).translation() - pose_at(ta).translation()) /
                 (static_cast<double>(tb - ta) * 1e-9);
     state.sigma_velocity = 0.1;
   }

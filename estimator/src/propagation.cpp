@@ -15,13 +15,13 @@ void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, d
                    double gravity, FilterState* x, PropagationJacobians* J) {
   using Eigen::Matrix3d;
   using Eigen::Vector3d;
-  const Vector3d g_W(0.0, 0.0, -gravity);
+  const Vector3d g_M(0.0, 0.0, -gravity);
   const Vector3d omega_I = omega_m - x->b_g;
   const Vector3d a_I = a_m - x->b_a;
-  const Matrix3d R_W_I = x->q_W_I.toRotationMatrix();
+  const Matrix3d R_M_I = x->q_M_I.toRotationMatrix();
   const Matrix3d R_C_I = x->q_I_C.toRotationMatrix().transpose();
-  const Vector3d v_I = R_W_I.transpose() * x->v_W;
-  const Vector3d a_W = R_W_I * a_I + g_W;
+  const Vector3d v_I = R_M_I.transpose() * x->v_M;
+  const Vector3d a_M = R_M_I * a_I + g_M;
   const Vector3d phi = omega_I * dt;
   const Matrix3d R_step = ExpSO3(phi).toRotationMatrix();
 
@@ -32,22 +32,22 @@ void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, d
   const Matrix3d R_feat = ExpSO3(phi_C).toRotationMatrix();
 
   if (J != nullptr) {
-    // Core block: p' = p + v dt + a_W dt^2 / 2, v' = v + a_W dt, q' = q Exp(omega dt).
+    // Core block: p' = p + v dt + a_M dt^2 / 2, v' = v + a_M dt, q' = q Exp(omega dt).
     auto& F = J->F_core;
     F.setIdentity();
-    const Matrix3d R_skew_a = R_W_I * Skew(a_I);
+    const Matrix3d R_skew_a = R_M_I * Skew(a_I);
     F.block<3, 3>(kIdxP, kIdxV) = Matrix3d::Identity() * dt;
     F.block<3, 3>(kIdxP, kIdxQ) = -0.5 * dt * dt * R_skew_a;
-    F.block<3, 3>(kIdxP, kIdxBa) = -0.5 * dt * dt * R_W_I;
+    F.block<3, 3>(kIdxP, kIdxBa) = -0.5 * dt * dt * R_M_I;
     F.block<3, 3>(kIdxV, kIdxQ) = -dt * R_skew_a;
-    F.block<3, 3>(kIdxV, kIdxBa) = -dt * R_W_I;
+    F.block<3, 3>(kIdxV, kIdxBa) = -dt * R_M_I;
     F.block<3, 3>(kIdxQ, kIdxQ) = R_step.transpose();
     F.block<3, 3>(kIdxQ, kIdxBg) = -RightJacobianSO3(phi) * dt;
 
     // d v_C / d core and d omega_C / d core (only v, theta, b_g and the extrinsics).
     Eigen::Matrix<double, 3, kCoreDim> dvC = Eigen::Matrix<double, 3, kCoreDim>::Zero();
     Eigen::Matrix<double, 3, kCoreDim> dwC = Eigen::Matrix<double, 3, kCoreDim>::Zero();
-    dvC.block<3, 3>(0, kIdxV) = R_C_I * R_W_I.transpose();
+    dvC.block<3, 3>(0, kIdxV) = R_C_I * R_M_I.transpose();
     dvC.block<3, 3>(0, kIdxQ) = R_C_I * Skew(v_I);
     dvC.block<3, 3>(0, kIdxBg) = R_C_I * Skew(x->p_I_C);
     dvC.block<3, 3>(0, kIdxQIC) = Skew(v_C);
@@ -94,9 +94,9 @@ void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, d
     f.mu_C = m / n;
     f.rho = f.rho / n;
   }
-  x->p_W_I += x->v_W * dt + 0.5 * dt * dt * a_W;
-  x->v_W += a_W * dt;
-  x->q_W_I = (x->q_W_I * ExpSO3(phi)).normalized();
+  x->p_M_I += x->v_M * dt + 0.5 * dt * dt * a_M;
+  x->v_M += a_M * dt;
+  x->q_M_I = (x->q_M_I * ExpSO3(phi)).normalized();
   x->t_ns += static_cast<int64_t>(std::llround(dt * 1e9));
 }
 

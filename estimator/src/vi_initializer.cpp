@@ -265,7 +265,7 @@ bool VisualInertialInitializer::TryAlign(InitialAlignment* result, std::string* 
     return false;
   }
 
-  // The state at the newest frame K. W: gravity along -z, yaw of I0 kept as is (the minimal
+  // The state at the newest frame K. M: gravity along -z, yaw of I0 kept as is (the minimal
   // rotation that takes -g_I0 to +z).
   const std::vector<PreintegratedImu> pre =
       PreintegrateImu(input.imu, input.frame_t_ns, solution.b_g, solution.b_a);
@@ -273,25 +273,25 @@ bool VisualInertialInitializer::TryAlign(InitialAlignment* result, std::string* 
   const double t = pK.dt_s;
   const Eigen::Vector3d& g = solution.g_I0;
   const Eigen::Vector3d u = g.normalized();
-  const Eigen::Quaterniond q_W_I0 = Eigen::Quaterniond::FromTwoVectors(-g, Eigen::Vector3d::UnitZ());
-  const Eigen::Matrix3d R_W_I0 = q_W_I0.toRotationMatrix();
+  const Eigen::Quaterniond q_M_I0 = Eigen::Quaterniond::FromTwoVectors(-g, Eigen::Vector3d::UnitZ());
+  const Eigen::Matrix3d R_M_I0 = q_M_I0.toRotationMatrix();
   const Eigen::Vector3d v_K_I0 = solution.v_I0 + g * t + pK.beta;
   result->t_ns = frames_.back().t_ns;
-  result->q_W_I = (q_W_I0 * pK.q_0_k).normalized();
-  result->p_W_I = R_W_I0 * (solution.v_I0 * t + 0.5 * t * t * g + pK.alpha);
-  result->v_W = R_W_I0 * v_K_I0;
+  result->q_M_I = (q_M_I0 * pK.q_0_k).normalized();
+  result->p_M_I = R_M_I0 * (solution.v_I0 * t + 0.5 * t * t * g + pK.alpha);
+  result->v_M = R_M_I0 * v_K_I0;
   result->b_g = solution.b_g;
   result->b_a = solution.b_a;
-  // Error propagation into the filter's (dv_W, dtheta_IK, db_g, db_a). A tangent step du of u
-  // rotates W's gravity axis in I0: dtheta_I0 = -[u]x B(u) du (so that Exp(-dtheta) u = u + B du).
+  // Error propagation into the filter's (dv_M, dtheta_IK, db_g, db_a). A tangent step du of u
+  // rotates M's gravity axis in I0: dtheta_I0 = -[u]x B(u) du (so that Exp(-dtheta) u = u + B du).
   const Eigen::Matrix<double, 3, 2> B = BearingBasis(u);
   const Eigen::Matrix<double, 3, 2> T = -Skew(u) * B;
   const Eigen::Matrix3d R_0K = pK.q_0_k.toRotationMatrix();
   Eigen::Matrix<double, 12, kAlignDim> J = Eigen::Matrix<double, 12, kAlignDim>::Zero();
-  J.block<3, 3>(0, kAlignV) = R_W_I0;
-  J.block<3, 2>(0, kAlignG) = R_W_I0 * (gravity_magnitude_ * t * B - Skew(v_K_I0) * T);
-  J.block<3, 3>(0, kAlignBg) = R_W_I0 * pK.d_beta_d_bg;
-  J.block<3, 3>(0, kAlignBa) = R_W_I0 * pK.d_beta_d_ba;
+  J.block<3, 3>(0, kAlignV) = R_M_I0;
+  J.block<3, 2>(0, kAlignG) = R_M_I0 * (gravity_magnitude_ * t * B - Skew(v_K_I0) * T);
+  J.block<3, 3>(0, kAlignBg) = R_M_I0 * pK.d_beta_d_bg;
+  J.block<3, 3>(0, kAlignBa) = R_M_I0 * pK.d_beta_d_ba;
   J.block<3, 2>(3, kAlignG) = R_0K.transpose() * T;
   J.block<3, 3>(3, kAlignBg) = pK.d_R_d_bg;
   J.block<3, 3>(6, kAlignBg).setIdentity();

@@ -153,7 +153,7 @@ Eigen::Vector3d VioFilter::BearingRate(const FilterState& x, int slot) const {
   const Eigen::Vector3d omega_I = last_omega_m_ - x.b_g;
   const Eigen::Vector3d omega_C = R_C_I * omega_I;
   const Eigen::Vector3d v_C =
-      R_C_I * (x.q_W_I.conjugate() * x.v_W + omega_I.cross(x.p_I_C));
+      R_C_I * (x.q_M_I.conjugate() * x.v_M + omega_I.cross(x.p_I_C));
   return -omega_C.cross(f.mu_C) - f.rho * (v_C - f.mu_C.dot(v_C) * f.mu_C);
 }
 
@@ -342,12 +342,12 @@ void VioFilter::AddFeatures() {
 }
 
 std::string VioFilter::CheckHealth() const {
-  if (!x_.p_W_I.allFinite() || !x_.v_W.allFinite() || !x_.q_W_I.coeffs().allFinite() ||
+  if (!x_.p_M_I.allFinite() || !x_.v_M.allFinite() || !x_.q_M_I.coeffs().allFinite() ||
       !x_.b_g.allFinite() || !x_.b_a.allFinite() || !P_.diagonal().allFinite()) {
     return "state or covariance not finite";
   }
   if (P_.diagonal().minCoeff() < -1e-9) return "covariance lost positive definiteness";
-  if (x_.v_W.norm() > options_.health.max_speed) return "implausible velocity";
+  if (x_.v_M.norm() > options_.health.max_speed) return "implausible velocity";
   const double max_sigma = options_.health.max_position_sigma;
   if (P_.block<3, 3>(kIdxP, kIdxP).diagonal().maxCoeff() > max_sigma * max_sigma) {
     return "position covariance blow-up";
@@ -443,7 +443,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
     initialized_ = false;
     initializer_.Reset();
     // Restart from the last pose that was still finite, else from the origin.
-    have_previous_reset_pose_ = x_.p_W_I.allFinite() && x_.q_W_I.coeffs().allFinite();
+    have_previous_reset_pose_ = x_.p_M_I.allFinite() && x_.q_M_I.coeffs().allFinite();
     if (have_previous_reset_pose_) reset_pose_ = T_M_I();
     return result;
   }

@@ -15,16 +15,16 @@
 namespace vilma::estimator {
 namespace {
 
-double Yaw(const Eigen::Quaterniond& q_W_I) {
-  const Eigen::Vector3d x_W = q_W_I * Eigen::Vector3d::UnitX();
-  return std::atan2(x_W.y(), x_W.x());
+double Yaw(const Eigen::Quaterniond& q_M_I) {
+  const Eigen::Vector3d x_M = q_M_I * Eigen::Vector3d::UnitX();
+  return std::atan2(x_M.y(), x_M.x());
 }
 
 }  // namespace
 
 std::string GivenState::Validate() const {
-  if (!p_W_I.allFinite() || !v_W.allFinite() || !b_g.allFinite() || !b_a.allFinite() ||
-      !q_W_I.coeffs().allFinite() || std::abs(q_W_I.norm() - 1.0) > 1e-6) {
+  if (!p_M_I.allFinite() || !v_M.allFinite() || !b_g.allFinite() || !b_a.allFinite() ||
+      !q_M_I.coeffs().allFinite() || std::abs(q_M_I.norm() - 1.0) > 1e-6) {
     return "state: expected finite values and a unit quaternion";
   }
   for (const double sigma :
@@ -41,14 +41,14 @@ void VioFilter::StartFrom(const GivenState& state) {
   initialized_ = false;
 }
 
-void VioFilter::Start(int64_t t_ns, const Eigen::Quaterniond& q_W_I, const Eigen::Vector3d& p_W_I,
-                      const Eigen::Vector3d& v_W, const Eigen::Vector3d& b_g,
+void VioFilter::Start(int64_t t_ns, const Eigen::Quaterniond& q_M_I, const Eigen::Vector3d& p_M_I,
+                      const Eigen::Vector3d& v_M, const Eigen::Vector3d& b_g,
                       const Eigen::Vector3d& b_a, const Eigen::Matrix<double, 12, 12>& cov12,
                       double yaw_sigma) {
   x_.t_ns = t_ns;
-  x_.p_W_I = p_W_I;
-  x_.v_W = v_W;
-  x_.q_W_I = q_W_I.normalized();
+  x_.p_M_I = p_M_I;
+  x_.v_M = v_M;
+  x_.q_M_I = q_M_I.normalized();
   x_.b_g = b_g;
   x_.b_a = b_a;
   x_.q_I_C = camera_.T_I_C.rotation();
@@ -64,8 +64,8 @@ void VioFilter::Start(int64_t t_ns, const Eigen::Quaterniond& q_W_I, const Eigen
   // (dv, dtheta, db_g, db_a) are contiguous in the error state.
   static_assert(kIdxQ == kIdxV + 3 && kIdxBg == kIdxV + 6 && kIdxBa == kIdxV + 9);
   P_.block<12, 12>(kIdxV, kIdxV) = cov12;
-  // Yaw is stated about W's z axis; the error dtheta is in I: Sigma_I = R^T Sigma_W R.
-  const Eigen::Vector3d z_I = x_.q_W_I.conjugate() * Eigen::Vector3d::UnitZ();
+  // Yaw is stated about M's z axis; the error dtheta is in I: Sigma_I = R^T Sigma_M R.
+  const Eigen::Vector3d z_I = x_.q_M_I.conjugate() * Eigen::Vector3d::UnitZ();
   P_.block<3, 3>(kIdxQ, kIdxQ) += yaw_sigma * yaw_sigma * z_I * z_I.transpose();
   if (options_.estimate_extrinsics) {
     P_.block<3, 3>(kIdxQIC, kIdxQIC) =
@@ -92,12 +92,13 @@ bool VioFilter::InitializeFromGiven(int64_t t_ns, std::string* why_not) {
     *why_not = "no IMU at the given start state's time";
     return false;
   }
-  // Carry the given state to the frame time with the IMU (biases as given).
+  // Carry the given state to the frame time with the IMU (biases as given). ImuState's
+  // gravity-aligned frame W is the filter's M here.
   ImuState s;
   s.t_ns = g.t_ns;
-  s.q_W_I = g.q_W_I;
-  s.p_W_I = g.p_W_I;
-  s.v_W = g.v_W;
+  s.q_W_I = g.q_M_I;
+  s.p_W_I = g.p_M_I;
+  s.v_W = g.v_M;
   s.b_g = g.b_g;
   s.b_a = g.b_a;
   if (t_ns > g.t_ns) s = IntegrateImu(s, imu_, t_ns, rig_.imu.gravity_magnitude);
@@ -172,7 +173,7 @@ bool VioFilter::Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_
                          !initializer_.collecting();
   const InitOptions& o = options_.init;
 
-  // Puts the start into W: yaw 0 (or the last yaw before a reset), position 0 (or the last).
+  // Puts the start into M: yaw 0 (or the last yaw before a reset), position 0 (or the last).
   auto into_w = [&](Eigen::Quaterniond* q, Eigen::Vector3d* v) {
     const double yaw = have_previous_reset_pose_ ? Yaw(reset_pose_.rotation()) : 0.0;
     const Eigen::AngleAxisd Rz(yaw - Yaw(*q), Eigen::Vector3d::UnitZ());
@@ -186,12 +187,12 @@ bool VioFilter::Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_
     const bool aligned = initializer_.AddFrame(t_ns, image, &a, &reason);
     stats_.dynamic_init = initializer_.stats();
     if (aligned) {
-      Eigen::Quaterniond q = a.q_W_I;
-      Eigen::Vector3d v = a.v_W;
+      Eigen::Quaterniond q = a.q_M_I;
+      Eigen::Vector3d v = a.v_M;
       const Eigen::Vector3d p = into_w(&q, &v);
-      // The covariance is rotated with W's yaw change only through v (dtheta, biases are in I).
+      // The covariance is rotated with M's yaw change only through v (dtheta, biases are in I).
       Eigen::Matrix<double, 12, 12> cov = a.covariance;
-      const Eigen::Matrix3d Rz = (q * a.q_W_I.conjugate()).toRotationMatrix();
+      const Eigen::Matrix3d Rz = (q * a.q_M_I.conjugate()).toRotationMatrix();
       cov.block<3, 12>(0, 0) = Rz * cov.block<3, 12>(0, 0);
       cov.block<12, 3>(0, 0) = cov.block<12, 3>(0, 0) * Rz.transpose();
       // Floors for what the alignment does not model (rolling shutter, time offset, the
@@ -219,7 +220,7 @@ bool VioFilter::Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_
     ++stats_.moving_starts;
     ++stats_.fallback_starts;
   }
-  // At rest the accelerometer measures -g in I: R_W_I mean_a is along +z of W. The minimal
+  // At rest the accelerometer measures -g in I: R_M_I mean_a is along +z of M. The minimal
   // rotation that does this fixes roll and pitch; yaw is free (set to 0, or kept on a reset).
   Eigen::Quaterniond q = Eigen::Quaterniond::FromTwoVectors(mean_a, Eigen::Vector3d::UnitZ());
   Eigen::Vector3d v = Eigen::Vector3d::Zero();
@@ -227,10 +228,10 @@ bool VioFilter::Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_
   Eigen::Matrix<double, 12, 12> cov = Eigen::Matrix<double, 12, 12>::Zero();
   const double sv = is_static ? o.sigma_velocity_static : o.sigma_velocity_moving;
   cov.block<3, 3>(0, 0) = Eigen::Matrix3d::Identity() * sv * sv;
-  // Roll/pitch uncertainty is stated in W; the error dtheta is in I: Sigma_I = R^T Sigma_W R.
+  // Roll/pitch uncertainty is stated in M; the error dtheta is in I: Sigma_I = R^T Sigma_M R.
   const Eigen::Matrix3d R = q.toRotationMatrix();
-  const Eigen::Vector3d sigma_W(o.sigma_roll_pitch, o.sigma_roll_pitch, 0.0);
-  cov.block<3, 3>(3, 3) = R.transpose() * sigma_W.cwiseAbs2().asDiagonal() * R;
+  const Eigen::Vector3d sigma_M(o.sigma_roll_pitch, o.sigma_roll_pitch, 0.0);
+  cov.block<3, 3>(3, 3) = R.transpose() * sigma_M.cwiseAbs2().asDiagonal() * R;
   cov.block<3, 3>(6, 6) = Eigen::Matrix3d::Identity() * o.sigma_gyro_bias * o.sigma_gyro_bias;
   cov.block<3, 3>(9, 9) = Eigen::Matrix3d::Identity() * o.sigma_accel_bias * o.sigma_accel_bias;
   // A moving start cannot separate the gyro bias from the rotation: start at zero.

@@ -76,7 +76,7 @@ VioFrameOutput VioFilterStage::AddFrame(const std::vector<int64_t>& t_cam_ns,
   if (!r.pose_valid) return out;
   const FilterState& x = filter_->state();
   pose.T_M_I = r.T_M_I;
-  pose.v_M = x.v_W;  // the filter's world frame W is the mission frame M
+  pose.v_M = x.v_M;  // the filter's world frame W is the mission frame M
   pose.omega_I = last_omega_m_ - x.b_g;
   pose.gyro_bias = x.b_g;
   pose.accel_bias = x.b_a;

@@ -53,7 +53,7 @@ TEST_CASE("pixel Jacobian of a bearing in tangent coordinates matches central di
 
 TEST_CASE("state boxplus and boxminus are inverse") {
   FilterState x;
-  x.q_W_I = ExpSO3(Eigen::Vector3d(0.3, -0.2, 1.0));
+  x.q_M_I = ExpSO3(Eigen::Vector3d(0.3, -0.2, 1.0));
   x.q_I_C = ExpSO3(Eigen::Vector3d(-1.5, 0.1, 0.2));
   x.features.resize(3);
   x.features[0].active = true;

@@ -34,11 +34,11 @@ TEST_CASE("given state from a TUM file: interpolated pose, velocity from differe
   const GivenState s = LoadGivenState(path, 10'325'000'000, &source);
   CHECK_FALSE(source.velocity_from_file);
   CHECK_FALSE(source.biases_from_file);
-  CHECK((s.p_W_I - Eigen::Vector3d(0.325, -0.65, 0.1625)).norm() < 1e-5);
-  CHECK((s.v_W - Eigen::Vector3d(1.0, -2.0, 0.5)).norm() < 1e-4);
+  CHECK((s.p_M_I - Eigen::Vector3d(0.325, -0.65, 0.1625)).norm() < 1e-5);
+  CHECK((s.v_M - Eigen::Vector3d(1.0, -2.0, 0.5)).norm() < 1e-4);
   CHECK(s.b_g.norm() == 0.0);
   CHECK(s.sigma_gyro_bias > GivenState().sigma_gyro_bias);  // unknown biases: wider
-  const double yaw = 2.0 * std::atan2(s.q_W_I.z(), s.q_W_I.w());
+  const double yaw = 2.0 * std::atan2(s.q_M_I.z(), s.q_M_I.w());
   CHECK(yaw == Approx(0.325 * 2.0).margin(1e-5));  // yaw = 2 * (t - 10) rad/s
   CHECK_THROWS_WITH(LoadGivenState(path, 12'000'000'000),
                     Catch::Contains(path) && Catch::Contains("covers"));
@@ -54,10 +54,10 @@ TEST_CASE("given state from an ASL ground truth CSV: velocity and biases from th
   const GivenState s = LoadGivenState(path, 1'025'000'000, &source);
   CHECK(source.velocity_from_file);
   CHECK(source.biases_from_file);
-  CHECK((s.v_W - Eigen::Vector3d(2, 0, 0)).norm() < 1e-12);
+  CHECK((s.v_M - Eigen::Vector3d(2, 0, 0)).norm() < 1e-12);
   CHECK((s.b_g - Eigen::Vector3d(0.02, 0.02, 0.03)).norm() < 1e-12);
   CHECK((s.b_a - Eigen::Vector3d(0.1, 0.2, 0.4)).norm() < 1e-12);
-  CHECK(s.p_W_I.x() == Approx(0.025));
+  CHECK(s.p_M_I.x() == Approx(0.025));
   CHECK(s.t_ns == 1'025'000'000);
   std::filesystem::remove(path);
   CHECK_THROWS_AS(LoadGivenState("/nonexistent/gt.csv", 0), InputError);

@@ -44,7 +44,7 @@ class PlaneScene {
 
   const SensorRig& rig() const { return rig_; }
 
-  Eigen::Vector3d Position(double t) const {  // p_W_I [m]
+  Eigen::Vector3d Position(double t) const {  // p_M_I [m]
     const double tau = std::max(0.0, t - start_);
     return Eigen::Vector3d(0.4 * (1.0 - std::cos(2.0 * tau)), 0.2 * (1.0 - std::cos(1.3 * tau)),
                            0.0);

@@ -15,9 +15,9 @@ FilterState RandomState(std::mt19937* rng, int slots) {
     return Eigen::Vector3d(n(*rng), n(*rng), n(*rng)) * s;
   };
   FilterState x;
-  x.p_W_I = vec(2.0);
-  x.v_W = vec(1.5);
-  x.q_W_I = ExpSO3(vec(1.0));
+  x.p_M_I = vec(2.0);
+  x.v_M = vec(1.5);
+  x.q_M_I = ExpSO3(vec(1.0));
   x.b_g = vec(0.05);
   x.b_a = vec(0.2);
   x.q_I_C = ExpSO3(vec(1.0));
@@ -143,8 +143,8 @@ TEST_CASE("a static point stays consistent with the propagated camera pose") {
   // Propagate 200 small steps with constant body rates and compare the feature with the
   // point re-projected from the propagated pose (the Euler steps converge to the truth).
   FilterState x;
-  x.v_W = Eigen::Vector3d(0.5, -0.2, 0.1);
-  x.q_W_I = ExpSO3(Eigen::Vector3d(0.1, -0.2, 0.3));
+  x.v_M = Eigen::Vector3d(0.5, -0.2, 0.1);
+  x.q_M_I = ExpSO3(Eigen::Vector3d(0.1, -0.2, 0.3));
   x.q_I_C = ExpSO3(Eigen::Vector3d(-1.5, 0.0, -1.5));
   x.p_I_C = Eigen::Vector3d(0.05, -0.02, 0.01);
   x.features.resize(1);
@@ -152,16 +152,16 @@ TEST_CASE("a static point stays consistent with the propagated camera pose") {
   x.features[0].mu_C = Eigen::Vector3d(0.1, -0.2, 1.0).normalized();
   x.features[0].rho = 0.25;
   const Transformation T_I_C(x.q_I_C, x.p_I_C);
-  const Transformation T_W_C0 = Transformation(x.q_W_I, x.p_W_I) * T_I_C;
-  const Eigen::Vector3d p_W = T_W_C0 * (x.features[0].mu_C / x.features[0].rho);
+  const Transformation T_M_C0 = Transformation(x.q_M_I, x.p_M_I) * T_I_C;
+  const Eigen::Vector3d p_M = T_M_C0 * (x.features[0].mu_C / x.features[0].rho);
   const Eigen::Vector3d omega_m(0.2, 0.1, -0.3);
-  // Accelerometer reading that keeps the world velocity constant: a_I = R^T (0 - g_W).
+  // Accelerometer reading that keeps the world velocity constant: a_I = R^T (0 - g_M).
   for (int i = 0; i < 2000; ++i) {
-    const Eigen::Vector3d a_m = x.q_W_I.conjugate() * Eigen::Vector3d(0, 0, 9.81);
+    const Eigen::Vector3d a_m = x.q_M_I.conjugate() * Eigen::Vector3d(0, 0, 9.81);
     PropagateMean(omega_m, a_m, 0.0005, 9.81, &x, nullptr);
   }
-  const Transformation T_W_C = Transformation(x.q_W_I, x.p_W_I) * T_I_C;
-  const Eigen::Vector3d p_C = T_W_C.inverse() * p_W;
+  const Transformation T_M_C = Transformation(x.q_M_I, x.p_M_I) * T_I_C;
+  const Eigen::Vector3d p_C = T_M_C.inverse() * p_M;
   CHECK((x.features[0].mu_C - p_C.normalized()).norm() < 2e-3);
   CHECK(std::abs(x.features[0].rho - 1.0 / p_C.norm()) < 2e-3);
 }

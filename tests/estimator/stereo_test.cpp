@@ -148,7 +148,7 @@ double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, dou
     if (r.initialized_now) t_init = t;
   }
   *out_filter = filter;
-  return (filter->state().p_W_I - (scene.Position(seconds) - scene.Position(t_init))).norm();
+  return (filter->state().p_M_I - (scene.Position(seconds) - scene.Position(t_init))).norm();
 }
 
 TEST_CASE("stereo: new features start at the matched depth and the motion is tracked") {
@@ -175,8 +175,8 @@ TEST_CASE("stereo: new features start at the matched depth and the motion is tra
   int checked = 0;
   for (const FeatureState& feature : stereo_filter.state().features) {
     if (!feature.active) continue;
-    const Eigen::Vector3d mu_W = stereo_filter.state().q_W_I * feature.mu_C;
-    const double rho_true = mu_W.z() / (PlaneScene::kPlaneZ - stereo_filter.state().p_W_I.z());
+    const Eigen::Vector3d mu_M = stereo_filter.state().q_M_I * feature.mu_C;
+    const double rho_true = mu_M.z() / (PlaneScene::kPlaneZ - stereo_filter.state().p_M_I.z());
     CHECK(std::abs(feature.rho - rho_true) < 0.1 * rho_true);
     ++checked;
   }
@@ -186,7 +186,7 @@ TEST_CASE("stereo: new features start at the matched depth and the motion is tra
   RunStereoScene(scene, stereo, 1.0, &f, &again);
   VioFilter again2(scene.rig(), 0, stereo);
   RunStereoScene(scene, stereo, 1.0, &f, &again2);
-  CHECK(again.state().p_W_I == again2.state().p_W_I);
+  CHECK(again.state().p_M_I == again2.state().p_M_I);
 }
 
 TEST_CASE("stereo options are checked against the rig") {

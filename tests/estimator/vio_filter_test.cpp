@@ -118,7 +118,7 @@ double RunScene(const RunConfig& config, VioFilter* filter,
     if (r.initialized_now) t_init = static_cast<double>(t_cam) * 1e-9;
   }
   // The filter starts at the origin: compare displacements since initialization.
-  return (filter->state().p_W_I -
+  return (filter->state().p_M_I -
           (Scene::Position(config.seconds) - Scene::Position(t_init)))
       .norm();
 }
@@ -137,8 +137,8 @@ TEST_CASE("a single feature's inverse distance converges to the true value") {
   CHECK(filter.stats().static_starts == 1);
   const FeatureState& f = filter.state().features[0];
   // True distance along the bearing to the plane (C = I, camera looks along +z of W).
-  const Eigen::Vector3d mu_W = filter.state().q_W_I * f.mu_C;
-  const double rho_true = mu_W.z() / (kPlaneZ - filter.state().p_W_I.z());
+  const Eigen::Vector3d mu_M = filter.state().q_M_I * f.mu_C;
+  const double rho_true = mu_M.z() / (kPlaneZ - filter.state().p_M_I.z());
   INFO("rho " << f.rho << " true " << rho_true << " (started at "
               << options.features.init_inverse_depth << ")");
   CHECK(std::abs(f.rho - rho_true) < 0.1 * rho_true);
@@ -166,7 +166,7 @@ TEST_CASE("a frame drop, an IMU gap and a duplicated IMU sample don't break the 
     INFO("drop " << config.drop_frame << " gap " << config.imu_gap_from << " duplicate "
                  << config.duplicate_imu_at << ": final position error " << error << " m");
     CHECK(resets == 0);
-    CHECK(filter.state().p_W_I.allFinite());
+    CHECK(filter.state().p_M_I.allFinite());
     CHECK(error < 0.05);  // of a 0.8 m x 0.4 m motion over 3 s
     if (config.duplicate_imu_at > 0) CHECK(filter.stats().imu_duplicates == 1);
     if (config.imu_gap_from > 0) CHECK(filter.stats().imu_gaps == 1);
@@ -194,7 +194,7 @@ TEST_CASE("a moving start initializes and tracks") {
   CHECK(resets == 0);
   CHECK(error < 0.1);
   // The camera does not rotate: the attitude stays level (gravity along +z of W in I = W).
-  const Eigen::Vector3d z_I = filter.state().q_W_I.conjugate() * Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d z_I = filter.state().q_M_I.conjugate() * Eigen::Vector3d::UnitZ();
   CHECK(std::acos(std::min(1.0, z_I.z())) < 0.5 * 3.14159265358979 / 180.0);
 }
 
@@ -224,9 +224,9 @@ TEST_CASE("a given start state is used at the first frame, carried there by the 
   VioFilter filter(TheScene().rig, 0, options);
   GivenState given;
   given.t_ns = -20'000'000;
-  given.p_W_I = Scene::Position(-0.02);
+  given.p_M_I = Scene::Position(-0.02);
   const double tau = -0.02 + 0.5;
-  given.v_W = Eigen::Vector3d(0.4 * 2.0 * std::sin(2.0 * tau), 0.2 * 1.3 * std::sin(1.3 * tau), 0);
+  given.v_M = Eigen::Vector3d(0.4 * 2.0 * std::sin(2.0 * tau), 0.2 * 1.3 * std::sin(1.3 * tau), 0);
   filter.StartFrom(given);
   for (int64_t t = -40'000'000; t <= 5'000'000; t += 5'000'000) filter.AddImu(Scene::Imu(t));
   const FrameResult first = filter.AddImage(0, TheScene().Render(0.0));
@@ -236,9 +236,9 @@ TEST_CASE("a given start state is used at the first frame, carried there by the 
   CHECK(filter.stats().given_starts == 1);
   // The state at t = 0: the given position and velocity carried 20 ms by exact IMU.
   Scene::StartTime() = -0.5;
-  CHECK((filter.state().p_W_I - Scene::Position(0.0)).norm() < 1e-4);
+  CHECK((filter.state().p_M_I - Scene::Position(0.0)).norm() < 1e-4);
   const Eigen::Vector3d v_true(0.4 * 2.0 * std::sin(1.0), 0.2 * 1.3 * std::sin(0.65), 0);
-  CHECK((filter.state().v_W - v_true).norm() < 1e-3);
+  CHECK((filter.state().v_M - v_true).norm() < 1e-3);
   Scene::StartTime() = 1.0;
   GivenState bad;
   bad.sigma_velocity = 0.0;
@@ -258,8 +258,8 @@ TEST_CASE("a diverging filter is detected, reset and re-initialized") {
   CHECK(resets >= 1);
   CHECK(filter.stats().resets == resets);
   CHECK(filter.initialized());  // re-initialized from clean IMU after the corruption
-  CHECK(filter.state().p_W_I.allFinite());
-  CHECK(filter.state().v_W.norm() < 2.0);  // the true speed is below 1 m/s
+  CHECK(filter.state().p_M_I.allFinite());
+  CHECK(filter.state().v_M.norm() < 2.0);  // the true speed is below 1 m/s
   CHECK(filter.state().num_active() > 0);
 }
 
@@ -273,8 +273,8 @@ TEST_CASE("the filter is deterministic") {
   int resets = 0;
   RunScene(config, &a, &resets);
   RunScene(config, &b, &resets);
-  CHECK(a.state().p_W_I == b.state().p_W_I);
-  CHECK(a.state().q_W_I.coeffs() == b.state().q_W_I.coeffs());
+  CHECK(a.state().p_M_I == b.state().p_M_I);
+  CHECK(a.state().q_M_I.coeffs() == b.state().q_M_I.coeffs());
   CHECK(a.covariance() == b.covariance());
 }
 

@@ -176,7 +176,7 @@ TEST_CASE("the pose covariance is the filter's, with the rotation error moved to
   CHECK((C.block<3, 3>(3, 3) - J * P_tt * J.transpose()).norm() < 1e-8 * (1.0 + P_tt.norm()));
   CHECK((C.block<3, 3>(0, 3) - P_pt * J.transpose()).norm() < 1e-8 * (1.0 + P_pt.norm()));
   CHECK((C - C.transpose()).norm() <= 1e-12 * C.norm());
-  CHECK(out.pose.v_M == stage.filter().state().v_W);
+  CHECK(out.pose.v_M == stage.filter().state().v_M);
   CHECK(out.pose.omega_I == scene.Imu(next_imu - kImuDt).omega_I - stage.filter().state().b_g);
 }
 

@@ -1,12 +1,12 @@
 // State of the ROVIO-style filter (Bloesch et al., IJRR 2017, sec. 3) and its error-state
-// ("boxplus") parametrization. Frames: W = M, the gravity-aligned odometry frame
-// (g_W = (0, 0, -g)); I the IMU; C the camera. Hamilton quaternions (Eigen).
+// ("boxplus") parametrization. Frames: M, the mission (gravity-aligned odometry) frame
+// (g_M = (0, 0, -g)); I the IMU; C the camera. Hamilton quaternions (Eigen).
 //
-// Mean:   p_W_I, v_W, q_W_I, b_g, b_a, q_I_C, p_I_C, and per feature slot a unit bearing mu_C
+// Mean:   p_M_I, v_M, q_M_I, b_g, b_a, q_I_C, p_I_C, and per feature slot a unit bearing mu_C
 //         (camera frame, robocentric) and an inverse distance rho (|p_C| = 1 / rho).
 // Error:  dx = [dp(3) dv(3) dtheta(3) dbg(3) dba(3) dphi_IC(3) dp_IC(3) dtd(1) |
 //               per slot dmu(2) drho]
-//         with p = p + dp, q_W_I = q_W_I Exp(dtheta) (right perturbation), q_I_C likewise, and
+//         with p = p + dp, q_M_I = q_M_I Exp(dtheta) (right perturbation), q_I_C likewise, and
 //         mu (+) dmu = Exp([mu]x B(mu) dmu) mu: the rotation that moves mu by B(mu) dmu to
 //         first order, B(mu) a 3x2 orthonormal basis of the tangent plane (BearingBasis).
 // The covariance always has rows for every slot (preallocated to max features): an inactive
@@ -52,9 +52,9 @@ struct FeatureState {
 
 struct FilterState {
   int64_t t_ns = 0;  // IMU clock [ns]
-  Eigen::Vector3d p_W_I = Eigen::Vector3d::Zero();  // [m]
-  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();    // [m/s]
-  Eigen::Quaterniond q_W_I = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d p_M_I = Eigen::Vector3d::Zero();  // [m]
+  Eigen::Vector3d v_M = Eigen::Vector3d::Zero();    // [m/s]
+  Eigen::Quaterniond q_M_I = Eigen::Quaterniond::Identity();
   Eigen::Vector3d b_g = Eigen::Vector3d::Zero();  // gyroscope bias [rad/s]
   Eigen::Vector3d b_a = Eigen::Vector3d::Zero();  // accelerometer bias [m/s^2]
   Eigen::Quaterniond q_I_C = Eigen::Quaterniond::Identity();

@@ -6,7 +6,7 @@
 //   alpha_k = sum beta_s dt + R_0_s (a_m - b_a) dt^2 / 2   (position change likewise)
 // (R_0_s at the middle of each piece: second order in dt)
 //
-// so that, with v_0 and g in I_0 (g = R_W_I0^T g_W):
+// so that, with v_0 and g in I_0 (g = R_M_I0^T g_M):
 //   p_I0_Ik = v_0 t_k + g t_k^2 / 2 + alpha_k,   v_Ik (in I_0) = v_0 + g t_k + beta_k.
 // The bias Jacobians are the exact derivatives of this discrete scheme (first-order bias
 // correction in the manner of Forster et al., "On-manifold preintegration", T-RO 2017):

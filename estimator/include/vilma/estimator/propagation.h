@@ -2,9 +2,9 @@
 // sec. 3.2-3.3, discretized by one explicit Euler step per IMU interval).
 //
 // Continuous model (omega_I = omega_m - b_g - n_g, a_I = a_m - b_a - n_a):
-//   p_dot = v_W,  v_dot = R_W_I a_I + g_W,  q_dot = q (x) [0, omega_I / 2],  b_dot = n_b
+//   p_dot = v_M,  v_dot = R_M_I a_I + g_M,  q_dot = q (x) [0, omega_I / 2],  b_dot = n_b
 // and for each feature, with the camera's angular and linear velocity in C
-//   omega_C = R_C_I omega_I,  v_C = R_C_I (R_W_I^T v_W + omega_I x p_I_C),
+//   omega_C = R_C_I omega_I,  v_C = R_C_I (R_M_I^T v_M + omega_I x p_I_C),
 // the robocentric point p_C = mu / rho moves as p_C_dot = -omega_C x p_C - v_C, i.e.
 // (IJRR 2017, eq. 12-13) mu_dot = -omega_C x mu - rho (I - mu mu^T) v_C,
 // rho_dot = rho^2 mu^T v_C. Discretized exactly in the ray direction:
@@ -43,7 +43,7 @@ struct PropagationNoise {
 };
 
 // One Euler step of the mean over dt [s] with the IMU measurement (omega_m [rad/s], a_m
-// [m/s^2]) at the start of the interval; gravity g_W = (0, 0, -gravity). Writes the Jacobians
+// [m/s^2]) at the start of the interval; gravity g_M = (0, 0, -gravity). Writes the Jacobians
 // if J is not null (J must have been resized to the slot count). Allocation-free.
 void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, double dt,
                    double gravity, FilterState* x, PropagationJacobians* J);

@@ -32,17 +32,17 @@ struct InitializerStats {
   int64_t uncertain = 0;         // roll/pitch std above max_roll_pitch_sigma
 };
 
-// The state at the newest frame of an accepted window, in a gravity-aligned frame W whose yaw
-// is that of the window's first IMU frame (g_W = (0, 0, -g)).
+// The state at the newest frame of an accepted window, in a gravity-aligned frame M whose yaw
+// is that of the window's first IMU frame (g_M = (0, 0, -g)).
 struct InitialAlignment {
   int64_t t_ns = 0;  // IMU clock
-  Eigen::Quaterniond q_W_I = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d p_W_I = Eigen::Vector3d::Zero();  // relative to the window's first IMU pose
-  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond q_M_I = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d p_M_I = Eigen::Vector3d::Zero();  // relative to the window's first IMU pose
+  Eigen::Vector3d v_M = Eigen::Vector3d::Zero();
   Eigen::Vector3d b_g = Eigen::Vector3d::Zero();
   Eigen::Vector3d b_a = Eigen::Vector3d::Zero();
-  // Covariance of (dv_W, dtheta, db_g, db_a) in the filter's error-state convention (dtheta a
-  // right perturbation of q_W_I); yaw is not included (the filter adds its own).
+  // Covariance of (dv_M, dtheta, db_g, db_a) in the filter's error-state convention (dtheta a
+  // right perturbation of q_M_I); yaw is not included (the filter adds its own).
   Eigen::Matrix<double, 12, 12> covariance = Eigen::Matrix<double, 12, 12>::Zero();
   double roll_pitch_sigma = 0.0;  // [rad]
   double rms_px = 0.0;

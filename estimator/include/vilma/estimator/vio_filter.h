@@ -65,12 +65,12 @@ struct FilterStats {
 };
 
 // A start from a known state (ground truth or a previous run: the usual way to evaluate VIO),
-// in the filter's frame W (gravity along -z, g from the rig).
+// in the filter's frame M (gravity along -z, g from the rig).
 struct GivenState {
   int64_t t_ns = 0;  // IMU clock; the filter starts at the first frame at or after it
-  Eigen::Quaterniond q_W_I = Eigen::Quaterniond::Identity();
-  Eigen::Vector3d p_W_I = Eigen::Vector3d::Zero();  // [m]
-  Eigen::Vector3d v_W = Eigen::Vector3d::Zero();    // [m/s]
+  Eigen::Quaterniond q_M_I = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d p_M_I = Eigen::Vector3d::Zero();  // [m]
+  Eigen::Vector3d v_M = Eigen::Vector3d::Zero();    // [m/s]
   Eigen::Vector3d b_g = Eigen::Vector3d::Zero();    // [rad/s]
   Eigen::Vector3d b_a = Eigen::Vector3d::Zero();    // [m/s^2]
   // Standard deviations of the start (how far the given state is to be trusted).
@@ -110,7 +110,7 @@ class VioFilter {
   const FilterState& state() const { return x_; }
   const Eigen::MatrixXd& covariance() const { return P_; }
   const FilterStats& stats() const { return stats_; }
-  Transformation T_M_I() const { return Transformation(x_.q_W_I, x_.p_W_I); }
+  Transformation T_M_I() const { return Transformation(x_.q_M_I, x_.p_M_I); }
 
  private:
   struct Track {  // photometric bookkeeping of one slot
@@ -124,9 +124,9 @@ class VioFilter {
   bool Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not);
   bool InitializeFromGiven(int64_t t_ns, std::string* why_not);
   // Sets the state and the core covariance; cov12 is over (dv, dtheta, db_g, db_a), yaw_sigma
-  // is added about W's z axis.
-  void Start(int64_t t_ns, const Eigen::Quaterniond& q_W_I, const Eigen::Vector3d& p_W_I,
-             const Eigen::Vector3d& v_W, const Eigen::Vector3d& b_g, const Eigen::Vector3d& b_a,
+  // is added about M's z axis.
+  void Start(int64_t t_ns, const Eigen::Quaterniond& q_M_I, const Eigen::Vector3d& p_M_I,
+             const Eigen::Vector3d& v_M, const Eigen::Vector3d& b_g, const Eigen::Vector3d& b_a,
              const Eigen::Matrix<double, 12, 12>& cov12, double yaw_sigma);
   void Propagate(int64_t t_ns);
   bool UpdateFeature(int slot);
