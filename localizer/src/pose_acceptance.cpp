@@ -250,11 +250,13 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
   q.matches = static_cast<int>(std::min(keypoints.size(), p_G.size()));
   out.T_G_C = pose.T_G_C;
   out.inliers = pose.inliers;
-  // Refinement with all inliers until the inlier set repeats.
+  // Refinement with all inliers until the inlier set repeats. Keypoint noise only: weighting
+  // by the landmark covariances moved the daemon's fused global poses away from the truth
+  // (docs/localizer.md, "Refinement unweighted"); they enter the covariance below.
   std::vector<double> errors = Errors(camera, keypoints, p_G, out.T_G_C);
   for (int round = 0; round < options.refine_rounds && out.inliers.size() >= 3; ++round) {
     Transformation T = out.T_G_C;
-    RefineCameraPoseWeighted(camera, keypoints, p_G, landmark_covariance, out.inliers,
+    RefineCameraPoseWeighted(camera, keypoints, p_G, exact, out.inliers,
                              std::max(1, ransac.refine_iterations), ransac.keypoint_sigma_px, &T);
     const std::vector<double> e = Errors(camera, keypoints, p_G, T);
     const std::vector<int> inliers = Below(e, ransac.threshold_px);
