@@ -4,8 +4,10 @@
 // (mapstored finalizes an incomplete mission that loads), and a mission per odometry segment
 // when the filter resets (--fault-reset-filter-at). LCM on loopback, ttl=0, a port per test.
 #include <algorithm>
+#include <atomic>
 #include <catch2/catch.hpp>
 #include <chrono>
+#include <lcm/lcm-cpp.hpp>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +16,8 @@
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <vilma/pose_t.hpp>
 
 #include "integration/process_util.h"
 #include "vilma/core/asl_dataset.h"
@@ -219,6 +223,43 @@ TEST_CASE("vilma-estimatord streams the mission to vilma-mapstored; kill -9 of m
   CHECK(mapstore::CheckMapConsistency(stored).ok());
 }
 
+// Counts VILMA_ODOM poses with status TRACKING on `url` from its own thread (the kill below
+// waits for tracking time, not wall time: a loaded machine starts the daemon slower).
+class TrackingCounter {
+ public:
+  explicit TrackingCounter(const std::string& url) : lcm_(url) {
+    REQUIRE(lcm_.good());
+    lcm_.subscribe("VILMA_ODOM", &TrackingCounter::OnOdom, this);
+    thread_ = std::thread([this] {
+      while (!stop_) lcm_.handleTimeout(20);
+    });
+  }
+  ~TrackingCounter() {
+    stop_ = true;
+    thread_.join();
+  }
+  // Waits until `n` tracking poses arrived; false after `timeout_s`.
+  bool WaitFor(int n, double timeout_s) {
+    const auto end = std::chrono::steady_clock::now() +
+                     std::chrono::milliseconds(static_cast<int>(timeout_s * 1000));
+    while (tracking_.load() < n) {
+      if (std::chrono::steady_clock::now() > end) return false;
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return true;
+  }
+  int tracking() const { return tracking_.load(); }
+
+ private:
+  void OnOdom(const lcm::ReceiveBuffer*, const std::string&, const pose_t* msg) {
+    if (msg->status == pose_t::TRACKING) ++tracking_;
+  }
+  lcm::LCM lcm_;
+  std::atomic<bool> stop_{false};
+  std::atomic<int> tracking_{0};
+  std::thread thread_;
+};
+
 TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplete mission",
           "[integration][daemon][mapping]") {
   if (!HaveBinaries()) return;
@@ -236,8 +277,11 @@ TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplet
                              "--lcm-url", url},
                             dir + "/daemon.out");
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  TrackingCounter odometry(url);
   test::ChildProcess replay({kReplay, room.dataset, "--lcm-url", url, "--quiet"}, dir + "/replay.out");
-  std::this_thread::sleep_for(std::chrono::seconds(5));
+  // About 4 s of tracking (40 poses at 10 Hz: 4 deltas of 10 vertices), then the kill.
+  CHECK(odometry.WaitFor(40, 30.0));
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the last delta's ack
   daemon.Signal(SIGKILL);
   CHECK(daemon.Wait(5.0) == 128 + SIGKILL);
   replay.Signal(SIGKILL);
