@@ -24,7 +24,7 @@ void PrintHelp() {
   std::cout
       << "usage: vilma-estimatord [--config daemon.yaml] [--rig rig.yaml] [--lcm-url URL]\n"
          "                        [--channel-suffix S] [--input-log FILE] [--save-map DIR]\n"
-         "                        [--localization-map FILE|MAPDIR] [--print-config]\n"
+         "                        [--localization-map FILE|MAPDIR] [--stereo] [--print-config]\n"
          "                        [--fault-stall-filter-after N] [--fault-reset-filter-at N]\n"
          "                        [--help]\n"
          "\n"
@@ -48,6 +48,11 @@ void PrintHelp() {
          "  --localization-map FILE|MAPDIR   LOC mode: localize against this localization map\n"
          "                      file or VI-map folder (localization.* options); publishes\n"
          "                      VILMA_POSE (T_G_I) every frame once T_G_M is known\n"
+         "  --stereo            also use the second camera (stereo: true; the estimator's\n"
+         "                      stereo.camera, default 1, on channels.cameras): photometric\n"
+         "                      updates in both images and stereo-matched initial depths; a\n"
+         "                      frame whose second image is missing is updated with the VIO\n"
+         "                      camera only (counted: frames_without_stereo)\n"
          "  --print-config      print the effective options and exit\n"
          "  --fault-stall-filter-after N   test: the filter thread stalls after N frames\n"
          "                      (the systemd watchdog is then no longer petted)\n"
@@ -62,7 +67,7 @@ void PrintHelp() {
 
 int main(int argc, char** argv) {
   std::string config_path, rig_path, lcm_url, suffix, input_log, save_map, loc_map;
-  bool have_url = false, have_suffix = false, print_config = false;
+  bool have_url = false, have_suffix = false, print_config = false, stereo = false;
   long long stall_after = -1;
   long long reset_at = -1;
   const std::vector<std::string> args(argv + 1, argv + argc);
@@ -108,6 +113,8 @@ int main(int argc, char** argv) {
         if (loc_map.empty()) {
           throw vilma::UsageError("--localization-map: expected a file or folder");
         }
+      } else if (a == "--stereo") {
+        stereo = arg.Flag();
       } else if (a == "--print-config") {
         print_config = arg.Flag();
       } else if (a == "--fault-stall-filter-after") {
@@ -147,6 +154,7 @@ int main(int argc, char** argv) {
       options.localization.enabled = true;
       options.localization.map = loc_map;
     }
+    if (stereo) options.stereo = true;
     options.fault_stall_filter_after = stall_after;
     options.fault_reset_filter_at = reset_at;
     vilma::ThrowIfInvalid(options.Validate(), config_path.empty() ? "command line" : config_path);

@@ -113,6 +113,16 @@ std::string DaemonOptions::Validate() const {
     return "camera_silence_s: expected > 0";
   }
   VILMA_RETURN_IF_ERROR(channels.Validate());
+  if (StereoEnabled()) {
+    const int second = estimator.stereo.camera;
+    if (second >= static_cast<int>(channels.cameras.size())) {
+      return "estimator.stereo.camera: expected an index into channels.cameras (stereo: the "
+             "second camera must be subscribed)";
+    }
+    if (second == vio_camera) {
+      return "estimator.stereo.camera: expected a camera other than vio_camera (stereo)";
+    }
+  }
   VILMA_RETURN_IF_ERROR(queues.Validate());
   const std::string sync_error = sync.Validate();
   if (!sync_error.empty()) return "sync." + sync_error;
@@ -129,6 +139,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.lcm_url = root.Get<std::string>("lcm_url");
   o.channel_suffix = root.Get<std::string>("channel_suffix");
   o.vio_camera = root.Get<int>("vio_camera");
+  o.stereo = root.Get<bool>("stereo");
   o.status_period_s = root.Get<double>("status_period_s");
   o.camera_silence_s = root.Get<double>("camera_silence_s");
 
@@ -263,6 +274,7 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "lcm_url: " << Quote(o.lcm_url) << "\n"
       << "channel_suffix: " << Quote(o.channel_suffix) << "\n"
       << "vio_camera: " << o.vio_camera << "\n"
+      << "stereo: " << (o.StereoEnabled() ? "true" : "false") << "\n"
       << "status_period_s: " << o.status_period_s << "\n"
       << "camera_silence_s: " << o.camera_silence_s << "\n"
       << "channels:\n  cameras: [";
@@ -332,14 +344,24 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
   return out.str();
 }
 
+estimator::FilterOptions DaemonOptions::EffectiveEstimatorOptions() const {
+  estimator::FilterOptions o = estimator;
+  o.stereo.enabled = StereoEnabled();
+  return o;
+}
+
 int RequiredImagePoolSlots(const DaemonOptions& options, int num_cameras) {
+  // Without map building the frames for the filter carry the VIO camera's image, and with
+  // stereo the second camera's too; with map building they carry every camera's image (the
+  // stereo image is one of them, the same slot).
+  const int frame_images = options.StereoEnabled() ? 2 : 1;
   const int frames = options.mapping.enabled
                          ? num_cameras * (options.sync.max_pending_frames + 2 +
                                           options.queues.max_frames_in_flight + 1 +
                                           options.mapping.max_frames_in_flight) +
                                2
                          : num_cameras * (options.sync.max_pending_frames + 2) +
-                               options.queues.max_frames_in_flight + 2;
+                               frame_images * (options.queues.max_frames_in_flight + 2);
   const int localization = options.localization.enabled ? 2 : 0;
   return frames + localization;
 }
@@ -349,7 +371,10 @@ std::string ImagePoolRuleText(const DaemonOptions& options, int num_cameras) {
       options.mapping.enabled
           ? ">= cameras x (sync.max_pending_frames + max_frames_in_flight + "
             "mapping.max_frames_in_flight + 3) + 2"
-          : ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2";
+          : options.StereoEnabled()
+                ? ">= cameras x (sync.max_pending_frames + 2) + 2 x (max_frames_in_flight + 2) "
+                  "(stereo: two images per frame)"
+                : ">= cameras x (sync.max_pending_frames + 2) + max_frames_in_flight + 2";
   if (options.localization.enabled) rule += " + 2 (localization)";
   return rule + " = " + std::to_string(RequiredImagePoolSlots(options, num_cameras));
 }

@@ -48,6 +48,13 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
                                       "the camera given by vio_camera (the rig has " +
                                           std::to_string(rig.cameras.size()) + ")"));
   }
+  const estimator::FilterOptions estimator_options = options.EffectiveEstimatorOptions();
+  if (estimator_options.stereo.enabled && estimator_options.stereo.camera >= num_cameras) {
+    throw InputError(FormatInputError(
+        "rig", "cameras[" + std::to_string(estimator_options.stereo.camera) + "]",
+        "the stereo camera (estimator stereo.camera; the rig has " +
+            std::to_string(rig.cameras.size()) + ")"));
+  }
   std::size_t slot_bytes = 0;
   std::vector<int64_t> camera_offsets_ns;
   for (int i = 0; i < num_cameras; ++i) {
@@ -66,7 +73,7 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
 
   publish = std::make_unique<PublishStage>(MakePublishStageOptions(options), &pipeline, pool.get());
   FilterStageOptions fo;
-  fo.estimator = options.estimator;
+  fo.estimator = estimator_options;
   fo.vio_camera = options.vio_camera;
   fo.queue_capacity = options.queues.filter_capacity;
   fo.fault_stall_after = options.fault_stall_filter_after;
@@ -76,6 +83,7 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   so.sync = options.sync;
   so.camera_offsets_ns = camera_offsets_ns;
   so.vio_camera = options.vio_camera;
+  so.stereo_camera = estimator_options.stereo.enabled ? estimator_options.stereo.camera : -1;
   so.camera_silence_s = options.camera_silence_s;
   so.input_capacity = options.queues.input_capacity;
   so.max_frames_in_flight = options.queues.max_frames_in_flight;

@@ -1,5 +1,6 @@
 #include "filter_stage.h"
 
+#include <algorithm>
 #include <cstdio>
 #include <thread>
 
@@ -27,7 +28,12 @@ FilterStage::FilterStage(const FilterStageOptions& options, const SensorRig& rig
       p_(*pipeline),
       queue_(static_cast<std::size_t>(options.queue_capacity)),
       output_(*output),
-      vio_(rig, options.vio_camera, options.estimator) {}
+      vio_(rig, options.vio_camera, options.estimator) {
+  int cameras = options.vio_camera + 1;
+  if (options.estimator.stereo.enabled) cameras = std::max(cameras, options.estimator.stereo.camera + 1);
+  frame_t_cam_ns_.assign(static_cast<std::size_t>(cameras), 0);
+  frame_images_.resize(static_cast<std::size_t>(cameras));
+}
 
 void FilterStage::ConnectMap(const MappingOptions& options, MapStage* stage) {
   map_ = std::make_unique<MapFeeder>(options, &p_, stage);
@@ -57,8 +63,20 @@ void FilterStage::OnFrame(FilterItem& item) {
   }
   OutputItem out;
   out.filter_start_ns = SteadyNs();
-  const estimator::VioFrameOutput o = vio_.AddFrame(item.t_cam_ns, item.image);
+  // The synchronized frame: the VIO camera's image, and with stereo the second camera's (or
+  // none: VioFilterStage then updates with the VIO camera only and counts the frame).
+  const std::size_t vio = static_cast<std::size_t>(options_.vio_camera);
+  frame_t_cam_ns_[vio] = item.t_cam_ns;
+  frame_images_[vio] = item.image;
+  if (options_.estimator.stereo.enabled) {
+    const std::size_t s = static_cast<std::size_t>(options_.estimator.stereo.camera);
+    frame_t_cam_ns_[s] = item.stereo_t_cam_ns;
+    frame_images_[s] = item.stereo_image;
+  }
+  const estimator::VioFrameOutput o = vio_.AddFrame(frame_t_cam_ns_, frame_images_);
   out.filtered_steady_ns = SteadyNs();
+  for (cv::Mat& m : frame_images_) m.release();
+  item.stereo_image.release();  // back to the pool
   const estimator::FrameResult& r = o.filter;
   const estimator::VioPose& pose = o.pose;
   cv::Mat loc_image;  // LOC mode: the image may go to the localizer
@@ -68,6 +86,7 @@ void FilterStage::OnFrame(FilterItem& item) {
   ++frames_;
   p_.counters.Add(kFramesFiltered);
   p_.counters.Set(kFilterResets, vio_.counters().resets);
+  p_.counters.Set(kFramesWithoutStereo, vio_.counters().frames_without_stereo);
   if (r.reset) p_.log(10, "filter reset: %s", r.reset_reason.c_str());
   const bool tracked = r.pose_valid && !r.reset;
   if (map_) {

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "loc_stage.h"
 #include "map_stage.h"
@@ -57,6 +58,10 @@ class FilterStage {
   std::unique_ptr<MapFeeder> map_;
   std::unique_ptr<LocClient> loc_;
   int64_t frames_ = 0;
+  // The frame as VioFilterStage::AddFrame takes it, per rig camera up to the VIO and the
+  // stereo camera (reused: no allocation per frame).
+  std::vector<int64_t> frame_t_cam_ns_;
+  std::vector<cv::Mat> frame_images_;
 };
 
 }  // namespace vilma::daemon

@@ -123,6 +123,11 @@ struct FilterItem {  // sync -> filter
   int64_t recv_latency_us = 0;
   int64_t synced_steady_ns = 0;
   cv::Mat image;
+  // Stereo (estimator stereo.enabled): the second camera's stamp and image of the frame (pool
+  // slot), empty when that camera's image did not come (the synchronizer released the frame
+  // incomplete): the filter then updates with the VIO camera only (frames_without_stereo).
+  int64_t stereo_t_cam_ns = 0;
+  cv::Mat stereo_image;
   // With map building: every subscribed camera's image of the frame (pool slots).
   std::array<cv::Mat, kMaxMapCameras> map_images;
 };

@@ -79,6 +79,13 @@ void SyncStage::Forward(SyncedFrame& f) {
   frame_item.kind = FilterItem::Kind::kFrame;
   frame_item.t_cam_ns = f.t_cam_ns[static_cast<std::size_t>(vio)];
   frame_item.image = image;
+  if (options_.stereo_camera >= 0) {
+    // The pair as the synchronizer grouped it (VioPipeline forwards the same frame to the same
+    // VioFilterStage): an empty image when the second camera's image did not come in time.
+    const std::size_t s = static_cast<std::size_t>(options_.stereo_camera);
+    frame_item.stereo_image = f.images[s];
+    frame_item.stereo_t_cam_ns = f.t_cam_ns[s];
+  }
   if (options_.with_all_images) {
     for (std::size_t c = 0; c < options_.camera_offsets_ns.size(); ++c) {
       frame_item.map_images[c] = f.images[c];

@@ -19,6 +19,7 @@ struct SyncStageOptions {
   SensorSyncOptions sync;
   std::vector<int64_t> camera_offsets_ns;  // per subscribed camera (rig time_offset_ns)
   int vio_camera = 0;                      // the filter's camera
+  int stereo_camera = -1;                  // stereo: the second camera (-1: mono)
   double camera_silence_s = 0.5;           // silence reported after this long [s of IMU time]
   int input_capacity = 4096;               // queue input -> sync [items]
   int max_frames_in_flight = 2;            // frames queued for the filter at most

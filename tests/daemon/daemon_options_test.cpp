@@ -65,6 +65,38 @@ TEST_CASE("bad daemon configs are rejected naming the key") {
              Catch::Contains("no-such-file.yaml"));
 }
 
+TEST_CASE("stereo: the daemon key turns on the estimator's stereo, validated, read back") {
+  const std::string good = DefaultConfigText();
+  const DaemonOptions mono = ParseDaemonOptions(good, "daemon.yaml");
+  CHECK_FALSE(mono.StereoEnabled());
+  CHECK_FALSE(mono.EffectiveEstimatorOptions().stereo.enabled);
+  const DaemonOptions stereo =
+      ParseDaemonOptions(Replace(good, "stereo: false", "stereo: true"), "daemon.yaml");
+  CHECK(stereo.StereoEnabled());
+  CHECK(stereo.EffectiveEstimatorOptions().stereo.enabled);
+  CHECK(stereo.EffectiveEstimatorOptions().stereo.camera == 1);
+  // The effective config says stereo: true and reads back to the same options.
+  CHECK_THAT(DaemonOptionsToYaml(stereo), Catch::Contains("\nstereo: true\n"));
+  CHECK(DaemonOptionsToYaml(ParseDaemonOptions(DaemonOptionsToYaml(stereo), "effective.yaml")) ==
+        DaemonOptionsToYaml(stereo));
+  // The estimator options' own stereo.enabled turns it on as well.
+  DaemonOptions via_estimator;
+  via_estimator.estimator.stereo.enabled = true;
+  CHECK(via_estimator.StereoEnabled());
+  CHECK_THAT(DaemonOptionsToYaml(via_estimator), Catch::Contains("\nstereo: true\n"));
+  // The second camera must be subscribed and differ from the VIO camera.
+  CHECK_THAT(ErrorOf(Replace(Replace(good, "stereo: false", "stereo: true"), "cameras: [CAM0, CAM1]",
+                             "cameras: [CAM0]")),
+             Catch::Contains("daemon.yaml") && Catch::Contains("estimator.stereo.camera"));
+  CHECK_THAT(ErrorOf(Replace(Replace(good, "stereo: false", "stereo: true"), "vio_camera: 0",
+                             "vio_camera: 1")),
+             Catch::Contains("estimator.stereo.camera") && Catch::Contains("vio_camera"));
+  // Mono with one subscribed camera stays valid.
+  CHECK(ErrorOf(Replace(good, "cameras: [CAM0, CAM1]", "cameras: [CAM0]")).empty());
+  CHECK_THAT(ErrorOf(Replace(good, "stereo: false", "stereo: 1.5")), Catch::Contains("stereo"));
+  CHECK_THAT(ErrorOf(Replace(good, "stereo: false", "")), Catch::Contains("stereo"));
+}
+
 TEST_CASE("the estimator options can be given inline") {
   std::ifstream in(std::string(VILMA_SOURCE_DIR) + "/config/estimator.yaml");
   std::stringstream ss;
@@ -245,9 +277,30 @@ TEST_CASE("image pool slots: mapping, localization and cameras add up (the LOC s
   o.localization.enabled = false;
   CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 32);
   CHECK_THAT(vilma::daemon::ImagePoolRuleText(o, 2), Catch::EndsWith(" = 32"));
-  // The defaults hold stereo with mapping and LOC.
+  // Stereo: with map building the frames already carry every camera's image (the stereo image
+  // is one of them): unchanged. Without, each frame for the filter holds two images.
+  o.stereo = true;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 32);
+  o.localization.enabled = true;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 34);
+  o.mapping.enabled = false;
+  o.localization.enabled = false;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 2 * (8 + 2) + 2 * (2 + 2));
+  CHECK_THAT(vilma::daemon::ImagePoolRuleText(o, 2),
+             Catch::Contains("stereo") && Catch::EndsWith(" = 28"));
+  o.localization.enabled = true;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 28 + 2);
+  o.stereo = false;
+  o.estimator.stereo.enabled = true;  // the estimator's own switch counts the same
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 30);
+  o.estimator.stereo.enabled = false;
+  CHECK(vilma::daemon::RequiredImagePoolSlots(o, 2) == 2 * 10 + 2 + 2 + 2);
+  // The defaults hold stereo with mapping and LOC, and stereo with LOC alone.
   vilma::daemon::DaemonOptions defaults;
+  defaults.stereo = true;
   defaults.mapping.enabled = true;
   defaults.localization.enabled = true;
+  CHECK(defaults.queues.image_pool_slots >= vilma::daemon::RequiredImagePoolSlots(defaults, 2));
+  defaults.mapping.enabled = false;
   CHECK(defaults.queues.image_pool_slots >= vilma::daemon::RequiredImagePoolSlots(defaults, 2));
 }

@@ -31,6 +31,7 @@ namespace vilma::daemon {
   X(kFramesDroppedBusy, "frames_dropped_busy") /* thinned: the filter was behind (max_frames_in_flight) */             \
   X(kFramesDroppedFilterQueue, "frames_dropped_filter_queue")                                                          \
   X(kFramesWithoutVioCamera, "frames_without_vio_camera")                                                              \
+  X(kFramesWithoutStereo, "frames_without_stereo") /* stereo: frame without the second image, updated mono */         \
   X(kCameraSilences, "camera_silences")                                                                                \
   X(kTimeJumpRestarts, "time_jump_restarts")                                                                           \
   X(kFramesFiltered, "frames_filtered")                                                                                \

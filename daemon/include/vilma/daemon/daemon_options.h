@@ -118,7 +118,11 @@ struct DaemonOptions {
   std::string rig;             // sensor rig YAML ("" = must come from --rig)
   std::string lcm_url;         // "" = $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0
   std::string channel_suffix;  // appended to every channel name
-  int vio_camera = 0;          // rig camera used by the monocular filter
+  int vio_camera = 0;          // rig camera in which the filter anchors its features
+  // Stereo: the filter also uses the second camera (the estimator options' stereo.camera, rig
+  // index, subscribed on channels.cameras): sets the estimator's stereo.enabled (which turns it
+  // on as well; StereoEnabled() is the effective value). --stereo sets it.
+  bool stereo = false;
   double status_period_s = 1.0;  // VILMA_STATUS period [s]
   // A camera with no image for this long [s of IMU time] while the IMU runs is reported
   // as silent (camera_silences), once per silence.
@@ -140,6 +144,9 @@ struct DaemonOptions {
                                           // of frames given to the filter; a new mission)
 
   std::string Validate() const;  // empty if valid, else "field: expectation"
+  bool StereoEnabled() const { return stereo || estimator.stereo.enabled; }
+  // The estimator options the filter runs with (stereo.enabled = StereoEnabled()).
+  estimator::FilterOptions EffectiveEstimatorOptions() const;
 };
 
 // Strict loading; throws InputError naming file, key and expectation.
@@ -150,10 +157,10 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root);
 std::string DaemonOptionsToYaml(const DaemonOptions& options);
 
 // Image pool slots the pipeline can hold at once with `num_cameras` cameras: the
-// synchronizer's pending frames and the frames queued for the filter; with map building the
-// frames the filter holds and those queued for the builder hold every camera's image; in LOC
-// mode one image in the localizer (one query in flight) and one held by the filter while it
-// decides. With fewer slots, the log mode's blocking input could wait for a slot that only
+// synchronizer's pending frames and the frames queued for the filter (one image each, two with
+// stereo); with map building the frames the filter holds and those queued for the builder hold
+// every camera's image (the stereo image among them); in LOC mode one image in the localizer
+// (one query in flight) and one held by the filter while it decides. With fewer slots, the log mode's blocking input could wait for a slot that only
 // newer input would free.
 int RequiredImagePoolSlots(const DaemonOptions& options, int num_cameras);
 // ">= <rule> = N": the expectation of the queues.image_pool_slots error.
