@@ -96,6 +96,11 @@ class PtyImu {
     replug_after_s_ = stream_s;
     replug_gap_s_ = gap_s;
   }
+  // The device vanishes now, for `gap_s` (from the test's thread while the simulator runs).
+  void UnplugNow(double gap_s) {
+    replug_gap_s_ = gap_s;
+    unplug_now_ = true;
+  }
 
   std::mutex mutex;
   std::map<int64_t, int64_t> truth_ns;  // k -> CLOCK_REALTIME of the sample's event
@@ -154,7 +159,7 @@ class PtyImu {
       const int64_t now = SteadyNs();
       if (stream_start_ns_ == 0) stream_start_ns_ = now;
       const double streamed_s = static_cast<double>(now - stream_start_ns_) * 1e-9;
-      if (replug_after_s_ > 0.0 && streamed_s >= replug_after_s_) {
+      if ((replug_after_s_ > 0.0 && streamed_s >= replug_after_s_) || unplug_now_.exchange(false)) {
         ::close(master_);
         master_ = -1;
         const int64_t back_ns = SteadyNs() + static_cast<int64_t>(replug_gap_s_ * 1e9);
@@ -218,7 +223,8 @@ class PtyImu {
   std::thread thread_;
   double stream_seconds_ = 0.0;
   double replug_after_s_ = 0.0;
-  double replug_gap_s_ = 0.0;
+  std::atomic<double> replug_gap_s_{0.0};
+  std::atomic<bool> unplug_now_{false};
   int64_t stream_start_ns_ = 0;
   int64_t j_ = 0;  // sample of this run
   int64_t k_ = 0;  // sample overall (the values)
@@ -241,6 +247,20 @@ class Subscriber {
     if (stop_.exchange(true)) return;
     thread_.join();
   }
+  // Read while the thread runs.
+  std::size_t imu_count() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return imus.size();
+  }
+  bool has_status() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return !statuses.empty();
+  }
+  status_t last_status() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return statuses.back();
+  }
+  // After Stop() (or under the lock above).
   std::vector<imu_t> imus;
   std::vector<status_t> statuses;
 
@@ -449,13 +469,27 @@ TEST_CASE("vilma-usb-imu stops cleanly on SIGTERM, also while reconnecting",
   test::SimMipDeviceOptions sim;
   const std::string link = vilma::test::ScratchDir() + "/imu_tty_sigterm";
   PtyImu imu(link, sim, 0.0, Faults{});
-  if (while_reconnecting) imu.ReplugAfter(0.5, 30.0);  // gone for longer than the test
   const std::string url = vilma::test::UniqueLcmUrl();
   Subscriber sub(url);
   const std::string log = vilma::test::ScratchDir() + "/usb_imu_sigterm.log";
   vilma::test::ChildProcess child(
       {kProgram, "--lcm-url", url, "--status-period-s", "0.25", "--serial", link}, log);
-  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  // SIGTERM once the driver has published 60 samples and, in the second case, once it is
+  // reconnecting to the device that vanished after them (its status says so) — conditions, not
+  // a fixed window: on a loaded machine the driver may configure the device seconds late.
+  const auto wait_until = [&](const auto& condition) {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (!condition() && std::chrono::steady_clock::now() < until) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+  };
+  wait_until([&] { return sub.imu_count() >= 60; });
+  if (while_reconnecting) {
+    imu.UnplugNow(60.0);  // gone for longer than the test
+    wait_until([&] {
+      return sub.has_status() && Counter(sub.last_status(), "reconnect_attempts") >= 1;
+    });
+  }
   const int64_t sent_ns = SteadyNs();
   child.Signal(SIGTERM);
   const int code = child.Wait(5.0);
