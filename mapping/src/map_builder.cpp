@@ -7,6 +7,7 @@
 #include <iomanip>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <unordered_set>
 
 #include "vilma/core/error.h"
@@ -70,9 +71,16 @@ std::string MapBuilderStats::ToString(const std::string& indent) const {
 }
 
 MapBuilder::MapBuilder(const SensorRig& rig, const MapBuilderOptions& options,
-                       uint64_t mission_seed, const std::string& mission_name)
-    : rig_(rig), options_(options), ids_(0) {
+                       uint64_t mission_seed, const std::string& mission_name,
+                       MapBuilderMemory memory)
+    : rig_(rig), options_(options), ids_(0), memory_(memory), landmark_ids_(0) {
   ThrowIfInvalid(options_.Validate(), "map builder options");
+  if (memory_ == MapBuilderMemory::kReleaseAcknowledged && options_.keep_images) {
+    // Images are resources, which deltas do not carry: released vertices would lose them.
+    throw InputError(FormatInputError("map builder options", "keep_images",
+                                      "false when acknowledged data is released (streaming "
+                                      "without a local copy: the stream carries no images)"));
+  }
   if (rig_.cameras.empty()) {
     throw InputError(FormatInputError("rig", "cameras", "at least one camera"));
   }
@@ -94,6 +102,10 @@ MapBuilder::MapBuilder(const SensorRig& rig, const MapBuilderOptions& options,
   mapstore::IdGenerator mission_ids(mission_seed);
   mission_id_ = mission_ids.Next();
   ids_ = mapstore::IdGenerator::ForMission(mission_id_);
+  // Landmark ids of the incremental mode from a stream of their own, so that the vertex and
+  // edge ids (drawn from ids_ as objects are made) stay those of the whole-mission mode.
+  mapstore::IdGenerator mixer(mission_id_.lo ^ 0xBB67AE8584CAA73BULL);
+  landmark_ids_ = mapstore::IdGenerator(mixer.Next().hi ^ mission_id_.hi);
   mapstore::Mission mission;
   mission.id = mission_id_;
   mission.name = mission_name;
@@ -315,10 +327,73 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
   ++stats_.vertices;
   CompletePendingEdges(false);
   TrimImuBuffer();
+  if (memory_ == MapBuilderMemory::kReleaseAcknowledged) {
+    held_index_.emplace(id, next_vertex_index_);
+    held_.push_back({id, next_vertex_index_++});
+    UpdateTracks(false);
+  }
   const double ms = MsSince(t0);
   stats_.vertex_ms_total += ms;
   stats_.vertex_ms_max = std::max(stats_.vertex_ms_max, ms);
   return true;
+}
+
+mapstore::LandmarkId MapBuilder::FinishTrack(
+    const std::vector<mapstore::LandmarkObservation>& observations,
+    mapstore::IdGenerator* landmark_ids) {
+  if (observations.size() < 2) {
+    ++stats_.single_observations;
+    return {};
+  }
+  // Compact maps: such a track's landmark would be bad (too few observers) for good.
+  if (!options_.StoresShortTracks() &&
+      observations.size() < static_cast<std::size_t>(options_.landmark_quality.min_observers)) {
+    ++stats_.short_tracks;
+    return {};
+  }
+  ++stats_.tracks;
+  std::vector<TriangulationObservation> obs;
+  obs.reserve(observations.size());
+  for (const mapstore::LandmarkObservation& o : observations) {
+    const mapstore::Vertex& v = map_.vertex(o.vertex_id);
+    const CameraConfig& cam = rig_.cameras[o.camera];
+    TriangulationObservation t;
+    t.T_M_C = v.T_M_I * cam.T_I_C;
+    t.camera = &cam.camera;
+    t.uv = v.frames[o.camera].keypoints[o.keypoint].uv;
+    obs.push_back(t);
+  }
+  const TriangulationResult result = Triangulate(obs, options_.triangulation);
+  const LandmarkVerdict verdict = EvaluateLandmarkQuality(obs, result, options_.landmark_quality);
+  ++stats_.verdicts[static_cast<int>(verdict)];
+  // Without a position there is nothing to store (the track's keypoints stay landmark-free).
+  if (!result.ok()) return {};
+  // Compact maps store the good landmarks only (what localization and optimization use).
+  if (!options_.StoresBadLandmarks() && verdict != LandmarkVerdict::kGood) {
+    ++stats_.landmarks_bad;
+    ++stats_.bad_not_stored;
+    return {};
+  }
+
+  mapstore::Landmark landmark;
+  landmark.id = landmark_ids->Next();
+  landmark.store_vertex_id = observations.front().vertex_id;
+  const Transformation& T_M_I = map_.vertex(landmark.store_vertex_id).T_M_I;
+  landmark.p_I = T_M_I.inverse() * result.p_M;
+  const Eigen::Matrix3d R_I_M = T_M_I.rotation().toRotationMatrix().transpose();
+  landmark.covariance = R_I_M * result.covariance_M * R_I_M.transpose();
+  landmark.quality = verdict == LandmarkVerdict::kGood ? mapstore::LandmarkQuality::kGood
+                                                       : mapstore::LandmarkQuality::kBad;
+  const mapstore::LandmarkId lid = landmark.id;
+  map_.AddLandmark(std::move(landmark));
+  for (const mapstore::LandmarkObservation& o : observations) map_.AddObservation(lid, o);
+  ++stats_.landmarks;
+  if (verdict == LandmarkVerdict::kGood) {
+    ++stats_.landmarks_good;
+  } else {
+    ++stats_.landmarks_bad;
+  }
+  return lid;
 }
 
 const mapstore::VIMap& MapBuilder::Finish() {
@@ -327,91 +402,222 @@ const mapstore::VIMap& MapBuilder::Finish() {
   CompletePendingEdges(true);
   finished_ = true;
 
-  // Observations per track, ordered by track id (deterministic), each in vertex order.
-  std::map<int64_t, std::vector<mapstore::LandmarkObservation>> tracks;
-  for (const VertexId& vid : map_.vertex_ids(mission_id_)) {
-    const mapstore::Vertex& v = map_.vertex(vid);
-    for (std::size_t c = 0; c < v.frames.size(); ++c) {
-      const mapstore::VisualFrame& f = v.frames[c];
-      for (std::size_t k = 0; k < f.track_ids.size(); ++k) {
-        if (f.track_ids[k] < 0) continue;
-        tracks[f.track_ids[k]].push_back({vid, static_cast<uint32_t>(c), static_cast<uint32_t>(k)});
+  if (memory_ == MapBuilderMemory::kReleaseAcknowledged) {
+    // Every track ends here; the vertices not final yet become final (only they go out).
+    UpdateTracks(true);
+  } else {
+    // Observations per track, ordered by track id (deterministic), each in vertex order.
+    std::map<int64_t, std::vector<mapstore::LandmarkObservation>> tracks;
+    for (const VertexId& vid : map_.vertex_ids(mission_id_)) {
+      const mapstore::Vertex& v = map_.vertex(vid);
+      for (std::size_t c = 0; c < v.frames.size(); ++c) {
+        const mapstore::VisualFrame& f = v.frames[c];
+        for (std::size_t k = 0; k < f.track_ids.size(); ++k) {
+          if (f.track_ids[k] < 0) continue;
+          tracks[f.track_ids[k]].push_back(
+              {vid, static_cast<uint32_t>(c), static_cast<uint32_t>(k)});
+        }
       }
     }
+    for (const auto& [track_id, observations] : tracks) {
+      (void)track_id;
+      const mapstore::LandmarkId lid = FinishTrack(observations, &ids_);
+      if (lid.IsValid()) delta_landmarks_.push_back(lid);
+    }
+    if (options_.compact != "none") {
+      const mapstore::KeypointCompactionStats compaction =
+          mapstore::RemoveKeypointsWithoutLandmark(&map_, map_.vertex_ids(mission_id_));
+      stats_.keypoints_dropped = static_cast<int64_t>(compaction.keypoints_before -
+                                                      compaction.keypoints_after);
+    }
+    // Every vertex may have new landmark ids (and, compact, fewer keypoints): the next delta
+    // re-sends them all.
+    for (const VertexId& vid : map_.vertex_ids(mission_id_)) delta_vertices_.push_back(vid);
   }
-
-  std::vector<TriangulationObservation> obs;
-  for (const auto& [track_id, observations] : tracks) {
-    (void)track_id;
-    if (observations.size() < 2) {
-      ++stats_.single_observations;
-      continue;
-    }
-    // Compact maps: such a track's landmark would be bad (too few observers) for good.
-    if (!options_.StoresShortTracks() &&
-        observations.size() < static_cast<std::size_t>(options_.landmark_quality.min_observers)) {
-      ++stats_.short_tracks;
-      continue;
-    }
-    ++stats_.tracks;
-    obs.clear();
-    for (const mapstore::LandmarkObservation& o : observations) {
-      const mapstore::Vertex& v = map_.vertex(o.vertex_id);
-      const CameraConfig& cam = rig_.cameras[o.camera];
-      TriangulationObservation t;
-      t.T_M_C = v.T_M_I * cam.T_I_C;
-      t.camera = &cam.camera;
-      t.uv = v.frames[o.camera].keypoints[o.keypoint].uv;
-      obs.push_back(t);
-    }
-    const TriangulationResult result = Triangulate(obs, options_.triangulation);
-    const LandmarkVerdict verdict = EvaluateLandmarkQuality(obs, result, options_.landmark_quality);
-    ++stats_.verdicts[static_cast<int>(verdict)];
-    // Without a position there is nothing to store (the track's keypoints stay landmark-free).
-    if (!result.ok()) continue;
-    // Compact maps store the good landmarks only (what localization and optimization use).
-    if (!options_.StoresBadLandmarks() && verdict != LandmarkVerdict::kGood) {
-      ++stats_.landmarks_bad;
-      ++stats_.bad_not_stored;
-      continue;
-    }
-
-    mapstore::Landmark landmark;
-    landmark.id = ids_.Next();
-    landmark.store_vertex_id = observations.front().vertex_id;
-    const Transformation& T_M_I = map_.vertex(landmark.store_vertex_id).T_M_I;
-    landmark.p_I = T_M_I.inverse() * result.p_M;
-    const Eigen::Matrix3d R_I_M = T_M_I.rotation().toRotationMatrix().transpose();
-    landmark.covariance = R_I_M * result.covariance_M * R_I_M.transpose();
-    landmark.quality = verdict == LandmarkVerdict::kGood ? mapstore::LandmarkQuality::kGood
-                                                         : mapstore::LandmarkQuality::kBad;
-    const mapstore::LandmarkId lid = landmark.id;
-    map_.AddLandmark(std::move(landmark));
-    for (const mapstore::LandmarkObservation& o : observations) map_.AddObservation(lid, o);
-    delta_landmarks_.push_back(lid);
-    ++stats_.landmarks;
-    if (verdict == LandmarkVerdict::kGood) {
-      ++stats_.landmarks_good;
-    } else {
-      ++stats_.landmarks_bad;
-    }
-  }
-  if (options_.compact != "none") {
-    const mapstore::KeypointCompactionStats compaction =
-        mapstore::RemoveKeypointsWithoutLandmark(&map_, map_.vertex_ids(mission_id_));
-    stats_.keypoints_dropped = static_cast<int64_t>(compaction.keypoints_before -
-                                                    compaction.keypoints_after);
-  }
-  // Every vertex may have new landmark ids (and, compact, fewer keypoints): the next delta
-  // re-sends them all.
-  for (const VertexId& vid : map_.vertex_ids(mission_id_)) delta_vertices_.push_back(vid);
   map_.mission(mission_id_).complete = true;
   imu_.clear();
   stats_.finish_ms = MsSince(t0);
   return map_;
 }
 
+void MapBuilder::UpdateTracks(bool all) {
+  const VertexId newest = held_.empty() ? VertexId() : held_.back().id;
+  if (!all && !held_.empty()) {
+    const HeldVertex& hv = held_.back();
+    const mapstore::Vertex& v = map_.vertex(hv.id);
+    for (std::size_t c = 0; c < v.frames.size(); ++c) {
+      const mapstore::VisualFrame& f = v.frames[c];
+      for (std::size_t k = 0; k < f.track_ids.size(); ++k) {
+        if (f.track_ids[k] < 0) continue;
+        auto [it, inserted] = open_tracks_.try_emplace(f.track_ids[k]);
+        if (inserted) it->second.first_index = hv.index;
+        it->second.observations.push_back(
+            {hv.id, static_cast<uint32_t>(c), static_cast<uint32_t>(k)});
+      }
+    }
+  }
+  // A track the newest vertex did not continue never continues (the trackers match against
+  // the previous keyframe only, and ids are never reused): its landmark is made now, in
+  // track-id order as Finish() would.
+  for (auto it = open_tracks_.begin(); it != open_tracks_.end();) {
+    if (!all && it->second.observations.back().vertex_id == newest) {
+      ++it;
+      continue;
+    }
+    const mapstore::LandmarkId lid = FinishTrack(it->second.observations, &landmark_ids_);
+    if (lid.IsValid()) {
+      HeldLandmark& h = held_landmarks_[lid];
+      h.pending_observers = static_cast<int>(it->second.observations.size());
+      for (const mapstore::LandmarkObservation& o : it->second.observations) {
+        ++held_by_id(o.vertex_id).open_landmarks;
+      }
+    }
+    it = open_tracks_.erase(it);
+  }
+  // Tracks span consecutive vertices, so a vertex has an open track iff its index is at or
+  // after the first vertex of the oldest open track.
+  int64_t frontier = next_vertex_index_;
+  for (const auto& [track_id, track] : open_tracks_) {
+    (void)track_id;
+    frontier = std::min(frontier, track.first_index);
+  }
+  MakeFinal(frontier);
+}
+
+MapBuilder::HeldVertex& MapBuilder::held_by_id(const VertexId& id) {
+  // held_ is sorted by index and short (the vertices of the open tracks and those waiting for
+  // an acknowledgement): a binary search over the indices via the id's index.
+  const auto it = held_index_.find(id);
+  if (it == held_index_.end()) {
+    throw std::logic_error("map builder: vertex " + id.Hex() + " is not held");
+  }
+  const auto h = std::lower_bound(held_.begin(), held_.end(), it->second,
+                                  [](const HeldVertex& v, int64_t i) { return v.index < i; });
+  return *h;
+}
+
+bool MapBuilder::IsFinal(const VertexId& id) const {
+  const auto it = held_index_.find(id);
+  if (it == held_index_.end()) return true;  // released: final and acknowledged
+  return it->second < final_frontier_;
+}
+
+void MapBuilder::MakeFinal(int64_t up_to_index) {
+  if (up_to_index <= final_frontier_) return;
+  std::vector<VertexId> now_final;
+  for (const HeldVertex& h : held_) {
+    if (h.index >= final_frontier_ && h.index < up_to_index) now_final.push_back(h.id);
+  }
+  final_frontier_ = up_to_index;
+  if (now_final.empty()) return;
+  // Every landmark of these vertices exists (their tracks are closed): the compaction that
+  // Finish() would do is final for them.
+  if (options_.compact != "none") {
+    const mapstore::KeypointCompactionStats compaction =
+        mapstore::RemoveKeypointsWithoutLandmark(&map_, now_final);
+    stats_.keypoints_dropped +=
+        static_cast<int64_t>(compaction.keypoints_before - compaction.keypoints_after);
+  }
+  for (const VertexId& id : now_final) {
+    held_by_id(id).final = true;
+    delta_vertices_.push_back(id);
+    delta_final_vertices_.push_back(id);
+    for (const mapstore::VisualFrame& f : map_.vertex(id).frames) {
+      for (const mapstore::LandmarkId& lid : f.landmark_ids) {
+        if (!lid.IsValid()) continue;
+        // The landmark goes out with this vertex's observation (and those of the vertices
+        // final before); with the last observer it is complete.
+        delta_landmarks_.push_back(lid);
+        if (--held_landmarks_.at(lid).pending_observers == 0) completed_since_delta_.push_back(lid);
+      }
+    }
+  }
+}
+
+void MapBuilder::ReleaseAcknowledged(int64_t delta_index) {
+  if (memory_ != MapBuilderMemory::kReleaseAcknowledged) return;
+  mapstore::VIMap::IdSet edges, landmarks, vertices;
+  while (!sent_edges_.empty() && sent_edges_.front().second <= delta_index) {
+    edges.insert(sent_edges_.front().first);
+    sent_edges_.pop_front();
+  }
+  map_.RemoveEdges(edges);
+  while (!complete_landmarks_.empty() && complete_landmarks_.front().second <= delta_index) {
+    const mapstore::LandmarkId lid = complete_landmarks_.front().first;
+    complete_landmarks_.pop_front();
+    for (const mapstore::LandmarkObservation& o : map_.landmark(lid).observations) {
+      if (held_index_.count(o.vertex_id) != 0) --held_by_id(o.vertex_id).open_landmarks;
+    }
+    held_landmarks_.erase(lid);
+    landmarks.insert(lid);
+  }
+  map_.RemoveLandmarks(landmarks);
+  // Vertices still referred to by an edge (held, or pending its end sample) stay.
+  mapstore::VIMap::IdSet linked;
+  for (const mapstore::EdgeId& e : map_.edge_ids(mission_id_)) {
+    linked.insert(map_.edge(e).from);
+    linked.insert(map_.edge(e).to);
+  }
+  for (const PendingEdge& p : pending_edges_) {
+    linked.insert(p.from);
+    linked.insert(p.to);
+  }
+  const VertexId root = map_.mission(mission_id_).root_vertex_id;
+  for (auto it = held_.begin(); it != held_.end();) {
+    if (it->final && it->final_delta >= 0 && it->final_delta <= delta_index &&
+        it->open_landmarks == 0 && it->id != root && linked.count(it->id) == 0) {
+      vertices.insert(it->id);
+      held_index_.erase(it->id);
+      it = held_.erase(it);
+    } else {
+      ++it;
+    }
+  }
+  map_.RemoveVertices(vertices);
+}
+
+MapBuilderHeld MapBuilder::Held() const {
+  MapBuilderHeld h;
+  const auto& vertex_ids = map_.vertex_ids(mission_id_);
+  const auto& edge_ids = map_.edge_ids(mission_id_);
+  const auto& landmark_ids = map_.landmark_ids(mission_id_);
+  h.vertices = static_cast<int64_t>(vertex_ids.size());
+  h.edges = static_cast<int64_t>(edge_ids.size());
+  h.landmarks = static_cast<int64_t>(landmark_ids.size());
+  h.open_tracks = static_cast<int64_t>(open_tracks_.size());
+  // Heap bytes of the elements' arrays plus their structs (hash-map nodes not counted).
+  int64_t bytes = 0;
+  for (const VertexId& id : vertex_ids) {
+    const mapstore::Vertex& v = map_.vertex(id);
+    bytes += static_cast<int64_t>(sizeof(mapstore::Vertex));
+    for (const mapstore::VisualFrame& f : v.frames) {
+      bytes += static_cast<int64_t>(sizeof(f) + f.keypoints.capacity() * sizeof(mapstore::Keypoint) +
+                                    f.descriptors.capacity() +
+                                    f.track_ids.capacity() * sizeof(int64_t) +
+                                    f.landmark_ids.capacity() * sizeof(mapstore::LandmarkId));
+    }
+  }
+  for (const mapstore::EdgeId& id : edge_ids) {
+    bytes += static_cast<int64_t>(sizeof(mapstore::Edge) +
+                                  map_.edge(id).imu_samples.capacity() * sizeof(ImuSample));
+  }
+  for (const mapstore::LandmarkId& id : landmark_ids) {
+    bytes += static_cast<int64_t>(sizeof(mapstore::Landmark) +
+                                  map_.landmark(id).observations.capacity() *
+                                      sizeof(mapstore::LandmarkObservation));
+  }
+  for (const auto& [track_id, track] : open_tracks_) {
+    (void)track_id;
+    bytes += static_cast<int64_t>(sizeof(OpenTrack) + track.observations.capacity() *
+                                                          sizeof(mapstore::LandmarkObservation));
+  }
+  h.bytes = bytes;
+  return h;
+}
+
 mapstore::MissionDelta MapBuilder::TakeDelta() {
+  const int64_t index = deltas_taken_++;
+  const bool release = memory_ == MapBuilderMemory::kReleaseAcknowledged;
   mapstore::MissionDelta delta;
   delta.mission = map_.mission(mission_id_);
   std::unordered_set<Id, mapstore::IdHash> seen;
@@ -421,11 +627,37 @@ mapstore::MissionDelta MapBuilder::TakeDelta() {
     // The stream carries no resources: a receiver would hold ids of images it does not have.
     for (mapstore::VisualFrame& f : delta.vertices.back().frames) {
       f.image_resource_id = mapstore::ResourceId();
+      // Incremental: a vertex that is not final goes out without landmark ids (its landmarks
+      // carry no observation of it yet); its final form follows.
+      if (release && !IsFinal(id)) f.landmark_ids.assign(f.landmark_ids.size(), {});
     }
   }
-  for (const mapstore::EdgeId& id : delta_edges_) delta.edges.push_back(map_.edge(id));
+  for (const mapstore::EdgeId& id : delta_edges_) {
+    delta.edges.push_back(map_.edge(id));
+    if (release) sent_edges_.emplace_back(id, index);
+  }
+  seen.clear();
   for (const mapstore::LandmarkId& id : delta_landmarks_) {
+    if (!seen.insert(id).second) continue;
     delta.landmarks.push_back(map_.landmark(id));
+    if (release) {
+      // Only the observations of final vertices: those carry the landmark's id.
+      auto& obs = delta.landmarks.back().observations;
+      obs.erase(std::remove_if(obs.begin(), obs.end(),
+                               [&](const mapstore::LandmarkObservation& o) {
+                                 return !IsFinal(o.vertex_id);
+                               }),
+                obs.end());
+    }
+  }
+  if (release) {
+    for (const VertexId& id : delta_final_vertices_) held_by_id(id).final_delta = index;
+    for (const mapstore::LandmarkId& id : completed_since_delta_) {
+      held_landmarks_.at(id).complete_delta = index;
+      complete_landmarks_.emplace_back(id, index);
+    }
+    delta_final_vertices_.clear();
+    completed_since_delta_.clear();
   }
   delta_vertices_.clear();
   delta_edges_.clear();

@@ -13,6 +13,20 @@
 //                        in its first observing vertex, adds the observations, evaluates the
 //                        landmark quality and marks the mission complete.
 //
+// Streaming with bounded memory (MapBuilderMemory::kReleaseAcknowledged, the daemon streaming
+// to vilma-mapstored without --save-map; docs/daemon.md "Memory in long missions"): a track
+// can only continue from the previous keyframe of its camera, so a track that the newest
+// vertex does not continue is closed for good. Its landmark is triangulated right away, with
+// exactly the inputs Finish() would use (its observers' T_M_I and keypoints). A vertex whose
+// tracks are all closed is final: compacted as Finish() would, and sent once more in a delta
+// with its landmark ids. A landmark goes out with every delta that makes one of its observers
+// final, carrying the observations of final vertices only, so that every delta prefix is a
+// consistent map on the receiver's side. ReleaseAcknowledged(k) then drops what the receiver
+// holds durably (deltas 0..k): edges, landmarks whose observers are all final, and vertices
+// whose landmarks are all released. The receiver's mission equals the batch one's but for the
+// landmark ids (a generator of their own, so that vertex and edge ids stay the same) and the
+// landmarks' order (in the order they were completed instead of by track id).
+//
 // IMU edges: the edge from vertex a (time t_a) to b (t_b) holds [s(t_a), every raw sample with
 // t_a < t < t_b, s(t_b)], where s(t) is the raw sample at t if one has that stamp, else the
 // linear interpolation of the two samples around t (core/imu.h InterpolateImu). So every raw
@@ -28,9 +42,12 @@
 #include <Eigen/Core>
 #include <cstdint>
 #include <deque>
+#include <map>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <string>
+#include <unordered_map>
+#include <utility>
 #include <vector>
 
 #include "vilma/core/geometry.h"
@@ -91,12 +108,29 @@ struct MapBuilderStats {
 // as dt [ns] >= 0.9e9 / rate; every frame when vertex_rate_hz <= 0.
 bool VertexIntervalReached(int64_t dt_ns, double vertex_rate_hz);
 
+// What the builder keeps of the mission (see the header comment).
+enum class MapBuilderMemory {
+  kWholeMission,         // everything until Finish(); map() is the whole mission
+  kReleaseAcknowledged,  // incremental landmarks; acknowledged data is dropped
+};
+
+// What the builder holds in memory now (kReleaseAcknowledged: bounded in a long mission).
+struct MapBuilderHeld {
+  int64_t vertices = 0;
+  int64_t edges = 0;
+  int64_t landmarks = 0;
+  int64_t open_tracks = 0;
+  // Estimated heap bytes of those (keypoints, descriptors, ids, IMU samples, observations).
+  int64_t bytes = 0;
+};
+
 class MapBuilder {
  public:
   // `mission_seed` fixes the mission id (and through IdGenerator::ForMission every object id).
   // Throws InputError for invalid options or a rig / camera list that does not fit.
   MapBuilder(const SensorRig& rig, const MapBuilderOptions& options, uint64_t mission_seed,
-             const std::string& mission_name = "");
+             const std::string& mission_name = "",
+             MapBuilderMemory memory = MapBuilderMemory::kWholeMission);
   ~MapBuilder();
 
   void AddImu(const ImuSample& sample);
@@ -114,14 +148,24 @@ class MapBuilder {
   // The mission header plus vertices and completed edges new since the last call; after
   // Finish() also the landmarks and the vertices whose landmark ids changed. Deltas carry no
   // resources, so their vertices carry no image ids (keep_images: only map() has the images).
+  // kReleaseAcknowledged: also the vertices that became final and their landmarks, as the
+  // header comment says; Finish() adds only what was not final yet.
+  // Deltas are numbered from 0 in the order taken (delta_count() - 1 is the last one's).
   mapstore::MissionDelta TakeDelta();
+  int64_t delta_count() const { return deltas_taken_; }
+  // kReleaseAcknowledged: the receiver holds deltas 0..delta_index durably; drops what no
+  // later delta and no open track needs. Does nothing in kWholeMission.
+  void ReleaseAcknowledged(int64_t delta_index);
+  MapBuilderHeld Held() const;
+  MapBuilderMemory memory() const { return memory_; }
 
   // Triangulates and evaluates the landmarks, completes a pending IMU edge, marks the mission
   // complete. Call once; later AddImu/AddFrame calls are ignored.
   const mapstore::VIMap& Finish();
 
   const mapstore::VIMap& map() const { return map_; }
-  // Moves the map out (after Finish()); the builder is then unusable.
+  // Moves the map out (after Finish()); the builder is then unusable. With
+  // kReleaseAcknowledged map() holds only what was not released (not a whole mission).
   mapstore::VIMap ReleaseMap() { return std::move(map_); }
   const mapstore::MissionId& mission_id() const { return mission_id_; }
   const MapBuilderStats& stats() const { return stats_; }
@@ -139,6 +183,33 @@ class MapBuilder {
   void CompletePendingEdges(bool hold_last);
   ImuSample SampleAt(int64_t t_ns) const;
   void TrimImuBuffer();
+  // Triangulates one track (observations in vertex order), evaluates it and stores its
+  // landmark (ids from `landmark_ids`), as Finish() does for every track. The landmark's id or
+  // an invalid id when none is stored.
+  mapstore::LandmarkId FinishTrack(const std::vector<mapstore::LandmarkObservation>& observations,
+                                   mapstore::IdGenerator* landmark_ids);
+  // kReleaseAcknowledged: the tracks of the newest vertex (all when `all`), the tracks it did
+  // not continue closed and triangulated, the vertices without an open track made final.
+  void UpdateTracks(bool all);
+  void MakeFinal(int64_t up_to_index);
+
+  struct OpenTrack {
+    int64_t first_index = 0;  // vertex index of the first observation
+    std::vector<mapstore::LandmarkObservation> observations;
+  };
+  struct HeldVertex {
+    mapstore::VertexId id;
+    int64_t index = 0;
+    bool final = false;
+    int64_t final_delta = -1;  // the delta that carries its final form
+    int open_landmarks = 0;    // landmarks it observes that are not released
+  };
+  struct HeldLandmark {
+    int pending_observers = 0;   // observer vertices not final yet
+    int64_t complete_delta = -1;  // the delta that carries it with every observation
+  };
+  HeldVertex& held_by_id(const mapstore::VertexId& id);
+  bool IsFinal(const mapstore::VertexId& id) const;  // released vertices are final
 
   SensorRig rig_;
   MapBuilderOptions options_;
@@ -161,6 +232,21 @@ class MapBuilder {
   std::vector<mapstore::VertexId> delta_vertices_;
   std::vector<mapstore::EdgeId> delta_edges_;
   std::vector<mapstore::LandmarkId> delta_landmarks_;
+  int64_t deltas_taken_ = 0;
+
+  // kReleaseAcknowledged bookkeeping.
+  MapBuilderMemory memory_ = MapBuilderMemory::kWholeMission;
+  mapstore::IdGenerator landmark_ids_;
+  std::map<int64_t, OpenTrack> open_tracks_;  // by track id
+  int64_t next_vertex_index_ = 0;
+  int64_t final_frontier_ = 0;      // vertices with a lower index are final
+  std::deque<HeldVertex> held_;     // vertices in map_, in index order
+  std::unordered_map<mapstore::Id, int64_t, mapstore::IdHash> held_index_;  // id -> index
+  std::unordered_map<mapstore::Id, HeldLandmark, mapstore::IdHash> held_landmarks_;
+  std::vector<mapstore::VertexId> delta_final_vertices_;  // made final since the last delta
+  std::deque<std::pair<mapstore::EdgeId, int64_t>> sent_edges_;  // edge, its delta
+  std::deque<std::pair<mapstore::LandmarkId, int64_t>> complete_landmarks_;  // id, its delta
+  std::vector<mapstore::LandmarkId> completed_since_delta_;
 
   MapBuilderStats stats_;
 };
