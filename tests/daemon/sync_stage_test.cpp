@@ -166,4 +166,48 @@ TEST_CASE("sync stage: bad synchronizer options are an input error", "[daemon][s
   CHECK_THROWS_WITH(SyncStage(o, &p, &out, &in_flight), Catch::Contains("daemon options: sync:"));
 }
 
+TEST_CASE("sync stage: stereo frames carry the second camera's image; a missing one is released "
+          "without it",
+          "[daemon][sync][stereo]") {
+  Pipeline p(true);
+  Spsc<FilterItem> out(8192);
+  std::atomic<int> in_flight{0};
+  SyncStageOptions o = Options();
+  o.camera_offsets_ns = {0, 0};
+  o.stereo_camera = 1;
+  SyncStage stage(o, &p, &out, &in_flight);
+  const cv::Mat left(8, 8, CV_8UC1, cv::Scalar(1)), right(8, 8, CV_8UC1, cv::Scalar(2));
+  const int64_t t0 = 100'000'000'000;
+  const int dropped_frame = 7;  // CAM1's image of this frame never comes
+  for (int i = 0; i <= 400; ++i) {
+    const int64_t t = t0 + int64_t{5'000'000} * i;
+    REQUIRE(stage.queue().push(Imu(t)));
+    if (i % 10 != 0) continue;
+    REQUIRE(stage.queue().push(Image(t, left)));
+    if (i / 10 == dropped_frame) continue;
+    InputItem second = Image(t, right);
+    second.camera = 1;
+    REQUIRE(stage.queue().push(second));
+  }
+  p.input_done.store(true);
+  stage.Run();
+  int frames = 0, without_second = 0;
+  for (const FilterItem& item : Drain(&out)) {
+    if (item.kind != FilterItem::Kind::kFrame) continue;
+    CHECK(item.image.data == left.data);
+    if (item.t_cam_ns == t0 + dropped_frame * int64_t{50'000'000}) {
+      CHECK(item.stereo_image.empty());  // released incomplete: the filter updates it mono
+      ++without_second;
+    } else {
+      CHECK(item.stereo_image.data == right.data);
+      CHECK(item.stereo_t_cam_ns == item.t_cam_ns);
+    }
+    ++frames;
+  }
+  // 41 frames: none lost to the dropout (the last one may wait for IMU beyond the end).
+  CHECK(frames >= 40);
+  CHECK(without_second == 1);
+  CHECK(p.counters.Get(kSyncFramesIncomplete) == 1);
+}
+
 }  // namespace vilma::daemon
