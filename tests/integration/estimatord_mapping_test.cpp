@@ -13,11 +13,14 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
 
-#include <vilma/pose_t.hpp>
+#include <vilma/mission_ack_t.hpp>
+#include <vilma/mission_chunk_t.hpp>
 
 #include "integration/process_util.h"
 #include "vilma/core/asl_dataset.h"
@@ -223,40 +226,74 @@ TEST_CASE("vilma-estimatord streams the mission to vilma-mapstored; kill -9 of m
   CHECK(mapstore::CheckMapConsistency(stored).ok());
 }
 
-// Counts VILMA_ODOM poses with status TRACKING on `url` from its own thread (the kill below
-// waits for tracking time, not wall time: a loaded machine starts the daemon slower).
-class TrackingCounter {
+// Follows the mission stream on `url` from its own thread: the vertices each chunk carries
+// (VILMA_MISSION, by seq) and mapstored's cumulative acknowledgements (VILMA_MISSION_ACK). The
+// kill below waits for what mapstored has made durable, not for wall or tracking time: a loaded
+// machine starts the daemon, the filter and the stream at any pace.
+class StreamAckTracker {
  public:
-  explicit TrackingCounter(const std::string& url) : lcm_(url) {
+  explicit StreamAckTracker(const std::string& url) : lcm_(url) {
     REQUIRE(lcm_.good());
-    lcm_.subscribe("VILMA_ODOM", &TrackingCounter::OnOdom, this);
+    lcm_.subscribe("VILMA_MISSION", &StreamAckTracker::OnChunk, this);
+    lcm_.subscribe("VILMA_MISSION_ACK", &StreamAckTracker::OnAck, this);
     thread_ = std::thread([this] {
       while (!stop_) lcm_.handleTimeout(20);
     });
   }
-  ~TrackingCounter() {
+  ~StreamAckTracker() {
     stop_ = true;
     thread_.join();
   }
-  // Waits until `n` tracking poses arrived; false after `timeout_s`.
-  bool WaitFor(int n, double timeout_s) {
+  // Waits until mapstored acknowledged chunks holding at least `n` vertices; false after
+  // `timeout_s`.
+  bool WaitForAcknowledgedVertices(std::size_t n, double timeout_s) {
     const auto end = std::chrono::steady_clock::now() +
                      std::chrono::milliseconds(static_cast<int>(timeout_s * 1000));
-    while (tracking_.load() < n) {
+    while (acknowledged_vertices() < n) {
       if (std::chrono::steady_clock::now() > end) return false;
       std::this_thread::sleep_for(std::chrono::milliseconds(20));
     }
     return true;
   }
-  int tracking() const { return tracking_.load(); }
+  // Vertices in the chunks 0..ack_seq that this tracker saw: a lower bound of what mapstored
+  // acknowledged (a chunk lost on the way to this subscriber is not counted, and an
+  // acknowledged chunk is not retransmitted).
+  std::size_t acknowledged_vertices() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::size_t vertices = 0;
+    for (const auto& [seq, count] : vertices_by_seq_) {
+      if (seq <= ack_seq_) vertices += count;
+    }
+    return vertices;
+  }
+  std::string Describe() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    std::ostringstream out;
+    out << "stream seen by the test: " << vertices_by_seq_.size() << " chunks (last seq "
+        << (vertices_by_seq_.empty() ? -1 : vertices_by_seq_.rbegin()->first) << "), ack_seq "
+        << ack_seq_;
+    return out.str();
+  }
 
  private:
-  void OnOdom(const lcm::ReceiveBuffer*, const std::string&, const pose_t* msg) {
-    if (msg->status == pose_t::TRACKING) ++tracking_;
+  void OnChunk(const lcm::ReceiveBuffer*, const std::string&, const mission_chunk_t* msg) {
+    std::size_t vertices = 0;
+    if ((msg->flags & mission_chunk_t::FLAG_DATA) != 0) {
+      const std::string payload(msg->payload.begin(), msg->payload.end());
+      vertices = mapstore::ParseMissionDelta(payload, "VILMA_MISSION chunk").vertices.size();
+    }
+    std::lock_guard<std::mutex> lock(mutex_);
+    vertices_by_seq_[msg->seq] = vertices;  // a retransmission carries the same delta
+  }
+  void OnAck(const lcm::ReceiveBuffer*, const std::string&, const mission_ack_t* msg) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (msg->status == mission_ack_t::OK) ack_seq_ = std::max(ack_seq_, msg->ack_seq);
   }
   lcm::LCM lcm_;
   std::atomic<bool> stop_{false};
-  std::atomic<int> tracking_{0};
+  mutable std::mutex mutex_;
+  std::map<int64_t, std::size_t> vertices_by_seq_;
+  int64_t ack_seq_ = -1;
   std::thread thread_;
 };
 
@@ -268,7 +305,10 @@ TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplet
   const std::string root = dir + "/maps";
   const std::string url = test::UniqueLcmUrl();
   const std::string config = StreamingConfig(dir, "room_crash");
-  std::ofstream(dir + "/mapstored.yaml") << "incomplete_timeout_s: 1.0\n";
+  // The daemon sends a delta about every second (delta_vertices 10 at 10 Hz, delta_period_s 1)
+  // and nothing while it has no new vertex: mapstored's silence timeout must be well above
+  // that, or it finalizes the mission of a living daemon (a 1 s timeout did, under load).
+  std::ofstream(dir + "/mapstored.yaml") << "incomplete_timeout_s: 4.0\n";
   test::ChildProcess store({kMapstored, "--root", root, "--lcm-url", url, "--config",
                             dir + "/mapstored.yaml"},
                            dir + "/mapstored.out");
@@ -277,18 +317,23 @@ TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplet
                              "--lcm-url", url},
                             dir + "/daemon.out");
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
-  TrackingCounter odometry(url);
+  StreamAckTracker stream(url);
   test::ChildProcess replay({kReplay, room.dataset, "--lcm-url", url, "--quiet"}, dir + "/replay.out");
-  // About 4 s of tracking (80 VILMA_ODOM poses at the camera's 20 Hz; vertices at 10 Hz in
-  // deltas of 10), then the kill. (40 poses, 2 s, left a clean CI run with 5 stored vertices.)
-  CHECK(odometry.WaitFor(80, 60.0));
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the last delta's ack
+  // Mid-mission: mapstored has acknowledged deltas holding >= 20 vertices (two deltas of 10 at
+  // 10 Hz, about 2 s of mapping), then the kill. Earlier versions waited 5 s of wall time, then
+  // 40 and 80 tracking poses; under CI's load each of them sometimes killed before two deltas
+  // were durable (5-6 vertices stored).
+  const bool acknowledged_enough = stream.WaitForAcknowledgedVertices(20, 90.0);
+  INFO(stream.Describe());
+  INFO(test::ReadTextFile(dir + "/daemon.out") << test::ReadTextFile(dir + "/mapstored.out"));
+  REQUIRE(acknowledged_enough);
+  const std::size_t acknowledged = stream.acknowledged_vertices();
   daemon.Signal(SIGKILL);
   CHECK(daemon.Wait(5.0) == 128 + SIGKILL);
   replay.Signal(SIGKILL);
   replay.Wait(5.0);
   INFO(test::ReadTextFile(dir + "/daemon.out") << test::ReadTextFile(dir + "/mapstored.out"));
-  REQUIRE(test::WaitForOutput(dir + "/mapstored.out", "finalized as incomplete", 10.0));
+  REQUIRE(test::WaitForOutput(dir + "/mapstored.out", "finalized as incomplete", 15.0));
   store.Signal(SIGTERM);
   CHECK(store.Wait(5.0) == 0);
 
@@ -296,10 +341,12 @@ TEST_CASE("kill -9 of vilma-estimatord mid-mission: mapstored keeps an incomplet
   REQUIRE(stored.mission_ids().size() == 1);
   const mapstore::Mission& mission = stored.mission(stored.mission_ids()[0]);
   CHECK_FALSE(mission.complete);
-  // About 4 s of tracking at 10 Hz, in deltas of 10 vertices: at least a few deltas arrived.
+  // At least two deltas of 10 vertices were acknowledged before the kill.
   const std::size_t vertices = stored.vertex_ids(mission.id).size();
-  WARN("kill -9 of the daemon: mapstored kept " << vertices << " vertices");
+  WARN("kill -9 of the daemon: mapstored kept " << vertices << " vertices, " << acknowledged
+       << " acknowledged before the kill");
   CHECK(vertices >= 10);
+  CHECK(vertices >= acknowledged);  // nothing acknowledged is lost
   CHECK(stored.VertexChain(mission.id).size() == vertices);  // a prefix of the mission
 }
 
