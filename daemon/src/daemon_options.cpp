@@ -54,7 +54,11 @@ std::string MapStreamOptions::Validate() const {
     return "mapping.stream.ack_channel: expected a channel other than chunk_channel";
   }
   if (delta_vertices < 1) return "mapping.stream.delta_vertices: expected >= 1";
-  if (max_delta_bytes < 65536) return "mapping.stream.max_delta_bytes: expected >= 65536";
+  if (max_delta_bytes < 65536 || max_delta_bytes > kMaxDeltaBytes) {
+    return "mapping.stream.max_delta_bytes: expected 65536 .. " + std::to_string(kMaxDeltaBytes) +
+           " (16 MiB: one LCM message must fit the receive buffer; mapstored rejects chunks "
+           "above 64 MiB)";
+  }
   if (!(std::isfinite(delta_period_s) && delta_period_s >= 0.01 && delta_period_s <= 3600.0)) {
     return "mapping.stream.delta_period_s: expected 0.01 .. 3600";
   }

@@ -132,6 +132,12 @@ TEST_CASE("map building options: strict, validated, read back", "[daemon][mappin
              Catch::Contains("mapping.stream.delta_vertices"));
   CHECK_THAT(ErrorOf(Replace(good, "end_timeout_s: 5.0", "end_timeout_s: -1")),
              Catch::Contains("mapping.stream.end_timeout_s"));
+  // max_delta_bytes: 64 KiB .. 16 MiB (DaemonOptions' kMaxDeltaBytes), both ends named.
+  CHECK_THAT(ErrorOf(Replace(good, "max_delta_bytes: 1048576", "max_delta_bytes: 65535")),
+             Catch::Contains("mapping.stream.max_delta_bytes: expected 65536 .. 16777216"));
+  CHECK_THAT(ErrorOf(Replace(good, "max_delta_bytes: 1048576", "max_delta_bytes: 16777217")),
+             Catch::Contains("mapping.stream.max_delta_bytes: expected 65536 .. 16777216"));
+  CHECK(ErrorOf(Replace(good, "max_delta_bytes: 1048576", "max_delta_bytes: 16777216")).empty());
   CHECK_THAT(ErrorOf(Replace(good, "max_frames_in_flight: 2 # frames with", "max_frames_in_flight: 0 #")),
              Catch::Contains("mapping.max_frames_in_flight"));
   CHECK_THAT(ErrorOf(Replace(good, "mission_seed: 0", "mission_seed: -3")),

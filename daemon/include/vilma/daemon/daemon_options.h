@@ -59,6 +59,12 @@ struct MapStreamOptions {
   // of about this size (mapstore/delta_split.h): one LCM message must fit the receiver's UDP
   // buffer (8 MB in mapstored) or it is retransmitted forever [bytes].
   int max_delta_bytes = 1 << 20;
+  // Upper bound of max_delta_bytes: 16 MiB, the receive buffer a robot is set up with
+  // (net.core.rmem_max, docs/daemon.md "Install on a robot"): a larger LCM message cannot be
+  // received at all. It also keeps a part (a single vertex may exceed the target) far below
+  // the 64 MiB above which mapstored rejects a chunk as malformed
+  // (MapStoreServerOptions::kMaxChunkPayloadBytes).
+  static constexpr int kMaxDeltaBytes = 16 << 20;
   // At shutdown: wait this long at most for mapstored to acknowledge the END [s]. What is not
   // acknowledged by then is lost for mapstored (the --save-map copy is still written).
   double end_timeout_s = 5.0;
