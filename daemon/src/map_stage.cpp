@@ -101,8 +101,20 @@ MapStage::MapStage(const MapStageOptions& options, const SensorRig& rig, Pipelin
     }
   }
   mission_seed_base_ = seed;
+  // Streaming without a local copy: mapstored's journal holds what it acknowledged, so the
+  // builder keeps only what it still needs (a long mission's memory stays bounded). A local
+  // copy (--save-map) needs the whole mission in memory, as before.
+  if (m.stream.enabled && m.save_dir.empty()) {
+    builder_memory_ = mapping::MapBuilderMemory::kReleaseAcknowledged;
+    if (builder_options_.keep_images) {
+      throw InputError(FormatInputError(
+          "daemon options", "mapping.map_builder.keep_images",
+          "false when streaming without mapping.save_dir / --save-map (the stream carries no "
+          "images; keep them in a local copy)"));
+    }
+  }
   builder_ = std::make_unique<mapping::MapBuilder>(rig, builder_options_, MissionSeed(0),
-                                                   MissionName(0));
+                                                   MissionName(0), builder_memory_);
   p_.counters.Add(kMapMissions);
   queue_ = std::make_unique<Spsc<MapItem>>(static_cast<std::size_t>(m.queue_capacity));
   if (m.stream.enabled) {
@@ -144,6 +156,15 @@ void MapStage::CopyCounters() {
   c.Set(kMapLandmarksGood, b.landmarks_good);
   c.Set(kMapVertexUsMean, static_cast<int64_t>(b.vertex_ms_mean() * 1e3));
   c.Set(kMapVertexUsMax, static_cast<int64_t>(b.vertex_ms_max * 1e3));
+  // What the current mission holds in memory (counted at most once a second: with the whole
+  // mission in memory the count walks it).
+  const int64_t now = SteadyNs();
+  if (run_ended_ || now - last_held_update_ns_ >= 1000 * kMs) {
+    last_held_update_ns_ = now;
+    const mapping::MapBuilderHeld held = run_ended_ ? mapping::MapBuilderHeld() : builder_->Held();
+    c.Set(kMapVerticesHeld, held.vertices);
+    c.Set(kMapBytesHeld, held.bytes);
+  }
   if (transport_) {
     mapstore::MissionStreamSenderCounters s = stream_counters_done_;
     for (const EndingStream& e : ending_streams_) AddStreamCounters(e.sender->sender().counters(), &s);
@@ -162,12 +183,36 @@ void MapStage::CopyCounters() {
 void MapStage::TakeDelta(bool always) {
   mapstore::MissionDelta delta = builder_->TakeDelta();
   if (!always && delta.vertices.empty() && delta.edges.empty() && delta.landmarks.empty()) return;
-  // The last delta re-sends the whole mission: parts that each fit one LCM message.
-  for (mapstore::MissionDelta& part : mapstore::SplitMissionDelta(
-           delta, static_cast<std::size_t>(options_.mapping.stream.max_delta_bytes))) {
-    backlog_.push_back(std::move(part));
+  // A large delta (the last one of a mission kept whole re-sends it) goes out in parts that
+  // each fit one LCM message.
+  const int64_t index = builder_->delta_count() - 1;
+  std::vector<mapstore::MissionDelta> parts = mapstore::SplitMissionDelta(
+      delta, static_cast<std::size_t>(options_.mapping.stream.max_delta_bytes));
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    backlog_.push_back({std::move(parts[i]), index, i + 1 == parts.size()});
   }
   p_.counters.Add(kMapDeltas);
+}
+
+void MapStage::SendBacklog() {
+  mapstore::MissionStreamSender& s = stream_->sender();
+  while (!backlog_.empty() && s.Send(backlog_.front().delta)) {
+    if (backlog_.front().last) sent_deltas_.emplace_back(backlog_.front().delta_index, s.next_seq() - 1);
+    backlog_.pop_front();
+  }
+}
+
+// Acknowledgements are cumulative: a delta whose last chunk is acknowledged is on mapstored's
+// disk with every delta before it (deltas taken but empty were not sent: nothing to release).
+void MapStage::ReleaseAcknowledged() {
+  if (builder_memory_ != mapping::MapBuilderMemory::kReleaseAcknowledged || !stream_) return;
+  const int64_t acked = stream_->sender().acked_seq();
+  int64_t released = -1;
+  while (!sent_deltas_.empty() && sent_deltas_.front().second <= acked) {
+    released = sent_deltas_.front().first;
+    sent_deltas_.pop_front();
+  }
+  if (released >= 0) builder_->ReleaseAcknowledged(released);
 }
 
 // Acks (the senders' handlers run in this thread: each takes the acks of its mission),
@@ -178,15 +223,16 @@ void MapStage::ServiceStream(int timeout_ms) {
     }
   }
   if (stream_) {
-    while (!backlog_.empty() && stream_->sender().Send(backlog_.front())) backlog_.pop_front();
+    SendBacklog();
     stream_->sender().Poll();
+    ReleaseAcknowledged();
   }
   std::size_t waiting = backlog_.size();
   const int64_t now = SteadyNs();
   for (std::size_t i = 0; i < ending_streams_.size();) {
     EndingStream& e = ending_streams_[i];
     mapstore::MissionStreamSender& s = e.sender->sender();
-    while (!e.backlog.empty() && s.Send(e.backlog.front())) e.backlog.pop_front();
+    while (!e.backlog.empty() && s.Send(e.backlog.front().delta)) e.backlog.pop_front();
     if (e.backlog.empty()) s.End();  // queued once; retried while the window is full
     s.Poll();
     waiting += e.backlog.size();
@@ -248,7 +294,8 @@ void MapStage::EndMission(bool end_of_run) {
 void MapStage::StartMission() {
   ++mission_index_;
   builder_ = std::make_unique<mapping::MapBuilder>(rig_, builder_options_, MissionSeed(mission_index_),
-                                                   MissionName(mission_index_));
+                                                   MissionName(mission_index_), builder_memory_);
+  sent_deltas_.clear();
   p_.counters.Add(kMapMissions);
   p_.log(13, "map: the filter's frame M starts anew (reset / restart): mission %d, %s",
          mission_index_, builder_->mission_id().Hex().c_str());

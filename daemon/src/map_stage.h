@@ -12,6 +12,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "pipeline.h"
@@ -56,15 +57,26 @@ class MapStage {
  private:
   // A mission that ended while streaming: its last delta and END go out while the next
   // mission streams (the map thread never waits for mapstored in the middle of a run).
+  // A part of a delta waiting for window space: the builder's delta index and whether it is
+  // the delta's last part (its chunk's acknowledgement acknowledges the whole delta).
+  struct Part {
+    mapstore::MissionDelta delta;
+    int64_t delta_index = 0;
+    bool last = false;
+  };
   struct EndingStream {
     std::unique_ptr<mapstore::LcmMissionStreamSender> sender;
-    std::deque<mapstore::MissionDelta> backlog;
+    std::deque<Part> backlog;
     int64_t deadline_ns = 0;  // steady clock: stream.end_timeout_s after the mission ended
   };
   uint64_t MissionSeed(int k) const;
   std::string MissionName(int k) const;
   void CopyCounters();
   void TakeDelta(bool always);
+  // Sends what fits the window; records the chunk of each delta's last part.
+  void SendBacklog();
+  // Releases in the builder what mapstored acknowledged (MapBuilderMemory::kReleaseAcknowledged).
+  void ReleaseAcknowledged();
   void ServiceStream(int timeout_ms);
   void EndMission(bool end_of_run);
   void StartMission();
@@ -74,6 +86,9 @@ class MapStage {
   const SensorRig& rig_;
   Pipeline& p_;
   mapping::MapBuilderOptions builder_options_;  // cameras resolved
+  // Streaming without --save-map: the builder drops what mapstored acknowledged
+  // (docs/daemon.md "Memory in long missions"); otherwise it keeps the whole mission.
+  mapping::MapBuilderMemory builder_memory_ = mapping::MapBuilderMemory::kWholeMission;
   uint64_t mission_seed_base_ = 0;
   // Declared before the senders that use it: destroyed after them.
   std::unique_ptr<MissionStreamTransport> transport_;
@@ -91,7 +106,10 @@ class MapStage {
   mapstore::MissionStreamSenderCounters stream_counters_done_;  // of the senders that ended
   std::vector<EndingStream> ending_streams_;
   int streams_finished_ = 0, streams_unfinished_ = 0;
-  std::deque<mapstore::MissionDelta> backlog_;  // deltas waiting for window space, in order
+  std::deque<Part> backlog_;  // delta parts waiting for window space, in order
+  // Deltas of the current mission sent whole: (delta index, seq of its last chunk), in order.
+  std::deque<std::pair<int64_t, int64_t>> sent_deltas_;
+  int64_t last_held_update_ns_ = 0;
   int64_t vertices_at_last_delta_ = 0;
   int64_t last_delta_ns_ = 0;
   double finish_ms_ = 0.0;  // Finish() of every mission

@@ -75,6 +75,8 @@ namespace vilma::daemon {
   X(kMapDeltas, "map_deltas") /* deltas taken for the stream */                                                        \
   X(kMapMissions, "map_missions") /* missions started (a new one after each filter reset / restart) */                 \
   X(kMapMissionsDropped, "map_missions_dropped") /* ended with fewer than 2 vertices: neither saved nor streamed */    \
+  X(kMapVerticesHeld, "map_vertices_held") /* gauge: vertices of the mission in memory (streaming: bounded) */         \
+  X(kMapBytesHeld, "map_bytes_held") /* gauge: their estimated heap bytes, with edges, landmarks, tracks */            \
   X(kStreamSent, "stream_sent") /* chunks queued (each transmitted once, then resent until acked) */                   \
   X(kStreamAcked, "stream_acked")                                                                                      \
   X(kStreamRetransmitted, "stream_retransmitted")                                                                      \
