@@ -22,6 +22,12 @@
 #                    localization columns: attempts, busy (skipped while the localizer worked),
 #                    accepted, VILMA_POSE frames, localizer stage p50 / max
 #                    (docs/benchmarks.md "Localization in the daemon")
+#   BENCH_BEFORE_ESTIMATORD  another vilma-estimatord binary (e.g. the pre-split daemon of issue
+#                    19, ~/.cache/vilma/issue19/baseline-bin/vilma-estimatord): each repeat runs it
+#                    ("before") and then this build's ("after") on the same set with the same
+#                    other programs, so both see the same machine load (ABAB...); rows carry the
+#                    label and the 1-min load average at their start, and a last table gives the
+#                    medians and the after/before ratios (docs/benchmarks.md "Daemon")
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -32,7 +38,13 @@ preset=${2:-room}
 repeat=${BENCH_REPEAT:-1}
 mapping=${BENCH_MAPPING:-0}
 loc=${BENCH_LOC:-0}
+before_exe=${BENCH_BEFORE_ESTIMATORD:-}
 bin=$build_dir/bin
+if [ -n "$before_exe" ] && [ ! -x "$before_exe" ]; then
+  echo "bench-daemon: BENCH_BEFORE_ESTIMATORD=$before_exe is not an executable" >&2; exit 1
+fi
+labels=current
+[ -n "$before_exe" ] && labels="before after"
 for exe in vilma-estimatord vilma-replay vilma-sim vilma-latency-probe; do
   [ -x "$bin/$exe" ] || { echo "bench-daemon: $bin/$exe not built (set VILMA_BUILD_DIR)" >&2; exit 1; }
 done
@@ -74,13 +86,20 @@ else
   echo "| set | frames | matched | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) | daemon CPU (status) | drops | malformed |"
   echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 fi
+# A table row, also kept for the medians of BENCH_BEFORE_ESTIMATORD.
+row() { printf "$@" | tee -a "$work/rows"; }
 port=$(( 22000 + $$ % 20000 ))
 for _ in $(seq "$repeat"); do
+for label in $labels; do
+  estimatord=$bin/vilma-estimatord
+  [ "$label" = before ] && estimatord=$before_exe
+  set_label="$preset $seconds s"
+  [ "$label" != current ] && set_label="$set_label $label, load $(cut -d' ' -f1 /proc/loadavg)"
   port=$((port + 1))
   url="udpm://239.255.76.67:$port?ttl=0"
   map_args=()
   if [ "$mapping" = 1 ]; then rm -rf "$work/map"; map_args=(--save-map "$work/map"); fi
-  "$bin/vilma-estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" \
+  "$estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" \
     "${loc_args[@]}" > "$work/daemon.out" 2>&1 &
   daemon_pid=$!
   "$bin/vilma-latency-probe" --lcm-url "$url" --idle-timeout 2 > "$work/probe.out" 2>&1 &
@@ -104,7 +123,7 @@ for _ in $(seq "$repeat"); do
   rep() { awk -v k="$1" '$1 == k {print $2}' "$work/daemon.out"; }
   if [ "$loc" = 1 ]; then
     stage=$(awk -v m="$(rep loc_stage_us_p50)" -v x="$(rep loc_stage_us_max)" 'BEGIN {printf "%.1f / %.1f", m / 1000, x / 1000}')
-    printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" \
+    row "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$set_label" \
       "$frames" "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$(get drops)" \
       "$(rep loc_attempts)" "$(rep loc_busy)" "$(rep loc_tgm_updates)" "$(rep loc_poses_published)" "$stage"
   elif [ "$mapping" = 1 ]; then
@@ -113,13 +132,40 @@ for _ in $(seq "$repeat"); do
     rate=$(awk -v v="$vertices" -v t0="$t0" -v t1="$t1" 'BEGIN {printf "%.1f", v / (t1 - t0)}')
     per_vertex=$(awk -v m="$(rep map_vertex_us_mean)" -v x="$(rep map_vertex_us_max)" 'BEGIN {printf "%.1f / %.1f", m / 1000, x / 1000}')
     stop_s=$(awk -v a="$s0" -v b="$s1" 'BEGIN {printf "%.2f", b - a}')
-    printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" \
+    row "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$set_label" \
       "$frames" "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$(get drops)" "$vertices" \
       "$rate" "$(rep map_frames_dropped)" "$per_vertex" "$stop_s"
     grep '^vilma-estimatord: map:' "$work/daemon.out" >&2 || true
   else
-    printf "| %s %s s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$preset" "$seconds" "$frames" \
+    row "| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n" "$set_label" "$frames" \
       "$matched" "$(lat p50)" "$(lat p99)" "$(lat max)" "$cpu" "$status_cpu" "$(get drops)" \
       "$(get malformed_messages)"
   fi
 done
+done
+if [ -n "$before_exe" ]; then
+  # Medians per label of latency p50 / p99 / max and /proc CPU, and after / before.
+  echo
+  echo "| medians of $repeat runs each | latency p50 [ms] | p99 [ms] | max [ms] | daemon CPU (/proc) |"
+  echo "|---|---:|---:|---:|---:|"
+  awk -F'|' '
+    function median(list, n,   a, i, j, t) {
+      n = split(list, a, " ")
+      for (i = 2; i <= n; i++) for (j = i; j > 1 && a[j - 1] > a[j]; j--) { t = a[j]; a[j] = a[j - 1]; a[j - 1] = t }
+      return n % 2 ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
+    }
+    $2 ~ / before,| after,/ {
+      l = ($2 ~ / before,/) ? "before" : "after"
+      p50[l] = p50[l] " " $5; p99[l] = p99[l] " " $6; mx[l] = mx[l] " " $7
+      cpu = $8; gsub(/[ %]/, "", cpu); c[l] = c[l] " " cpu
+    }
+    END {
+      for (k = 1; k <= 2; k++) {
+        l = k == 1 ? "before" : "after"
+        m[l, 1] = median(p50[l]); m[l, 2] = median(p99[l]); m[l, 3] = median(mx[l]); m[l, 4] = median(c[l])
+        printf "| %s | %.2f | %.2f | %.2f | %.0f%% |\n", l, m[l, 1], m[l, 2], m[l, 3], m[l, 4]
+      }
+      printf "| after / before | %.2f | %.2f | %.2f | %.2f |\n", m["after", 1] / m["before", 1],
+        m["after", 2] / m["before", 2], m["after", 3] / m["before", 3], m["after", 4] / m["before", 4]
+    }' "$work/rows"
+fi
