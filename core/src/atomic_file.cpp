@@ -22,10 +22,12 @@ struct WriteResult {
   const char* step = "";
 };
 
+WriteResult RenameIntoPlace(const char* tmp, const std::string& path, const std::string& dir);
+std::string FolderOf(const std::string& path);
+
 WriteResult WriteAtomically(const std::string& path, const std::string& content) {
   const fs::path target(path);
-  const std::string dir =
-      target.parent_path().empty() ? std::string(".") : target.parent_path().string();
+  const std::string dir = FolderOf(path);
   // mkstemp gives a name no other writer (thread or process) uses at the same time.
   std::string tmp_template = dir + "/." + target.filename().string() + ".XXXXXX";
   std::vector<char> tmp(tmp_template.begin(), tmp_template.end());
@@ -55,9 +57,14 @@ WriteResult WriteAtomically(const std::string& path, const std::string& content)
     ::unlink(tmp.data());
     return {err, "a successful close"};
   }
-  if (::rename(tmp.data(), path.c_str()) != 0) {
+  return RenameIntoPlace(tmp.data(), path, dir);
+}
+
+// Shared by both writers: rename the synced temporary file over `path`, then sync the folder.
+WriteResult RenameIntoPlace(const char* tmp, const std::string& path, const std::string& dir) {
+  if (::rename(tmp, path.c_str()) != 0) {
     const int err = errno;
-    ::unlink(tmp.data());
+    ::unlink(tmp);
     return {err, "a successful rename into place"};
   }
   // Make the rename itself durable. The file is in place now; a folder that cannot be synced
@@ -68,6 +75,24 @@ WriteResult WriteAtomically(const std::string& path, const std::string& content)
     ::close(dir_fd);
   }
   return {};
+}
+
+std::string FolderOf(const std::string& path) {
+  const fs::path parent = fs::path(path).parent_path();
+  return parent.empty() ? std::string(".") : parent.string();
+}
+
+WriteResult CommitAtomically(const std::string& partial_path, const std::string& path) {
+  const int fd = ::open(partial_path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return {errno, "the written temporary file"};
+  if (::fsync(fd) != 0) {
+    const int err = errno;
+    ::close(fd);
+    ::unlink(partial_path.c_str());
+    return {err, "a successful fsync"};
+  }
+  ::close(fd);
+  return RenameIntoPlace(partial_path.c_str(), path, FolderOf(path));
 }
 
 }  // namespace
@@ -82,6 +107,21 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
 
 int TryWriteFileAtomically(const std::string& path, const std::string& content) {
   return WriteAtomically(path, content).error;
+}
+
+int TryCommitFileAtomically(const std::string& partial_path, const std::string& path) {
+  const WriteResult r = CommitAtomically(partial_path, path);
+  if (r.error != 0) ::unlink(partial_path.c_str());
+  return r.error;
+}
+
+void CommitFileAtomically(const std::string& partial_path, const std::string& path) {
+  const WriteResult r = CommitAtomically(partial_path, path);
+  if (r.error != 0) {
+    ::unlink(partial_path.c_str());
+    throw InputError(
+        FormatInputError(path, "", std::string(r.step) + " (" + std::strerror(r.error) + ")"));
+  }
 }
 
 }  // namespace vilma

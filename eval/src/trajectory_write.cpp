@@ -2,9 +2,10 @@
 
 #include <cinttypes>
 #include <cstdio>
-#include <fstream>
+#include <sstream>
 #include <ostream>
 
+#include "vilma/core/atomic_file.h"
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
 
@@ -79,8 +80,9 @@ void WriteKittiTrajectory(std::ostream& out, const Trajectory& trajectory) {
 
 void WriteTrajectoryFile(const std::string& path, const Trajectory& trajectory,
                          TrajectoryFormat format) {
-  std::ofstream out(path);
-  if (!out) throw InputError(FormatInputError(path, "", "expected a writable file"));
+  // Written whole and atomically (core's one writer): a reader or a crash never sees half a
+  // trajectory, and an existing file stays as it was when the write fails.
+  std::ostringstream out;
   switch (format) {
     case TrajectoryFormat::kTum:
       WriteTumTrajectory(out, trajectory);
@@ -92,8 +94,7 @@ void WriteTrajectoryFile(const std::string& path, const Trajectory& trajectory,
       WriteKittiTrajectory(out, trajectory);
       break;
   }
-  out.flush();
-  if (!out) throw InputError(FormatInputError(path, "", "expected a writable file (write failed)"));
+  WriteFileAtomically(path, out.str());
 }
 
 }  // namespace vilma

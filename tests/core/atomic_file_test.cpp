@@ -71,6 +71,36 @@ TEST_CASE("WriteFileAtomically writes and replaces the content and leaves no tem
   CHECK((st.st_mode & 0777) == 0644);  // readable by others, as the data files it replaces
 }
 
+TEST_CASE("CommitFileAtomically: a file another writer made replaces the target; a missing one "
+          "leaves it", "[atomic_file]") {
+  testing::TempDir dir;
+  const std::string path = dir.File("mesh.ply");
+  const std::string partial = dir.File("mesh.ply.partial.ply");
+  WriteFileAtomically(path, "old");
+  std::ofstream(partial) << "new";
+  CommitFileAtomically(partial, path);
+  CHECK(ReadAll(path) == "new");
+  CHECK(Names(dir.path()) == std::vector<std::string>{"mesh.ply"});
+  // Nothing was written (the other library failed): the error names the target, which keeps
+  // its content.
+  CHECK_THROWS_WITH(CommitFileAtomically(partial, path),
+                    Catch::StartsWith(path + ": the written temporary file ("));
+  CHECK(ReadAll(path) == "new");
+  // The rename fails (a folder in the way): the partial file is removed, the folder stays.
+  const std::string folder = dir.File("folder");
+  fs::create_directories(folder + "/inside");
+  std::ofstream(partial) << "x";
+  CHECK_THROWS_WITH(CommitFileAtomically(partial, folder),
+                    Catch::Contains("a successful rename into place"));
+  CHECK_FALSE(fs::exists(partial));
+  CHECK(fs::is_directory(folder + "/inside"));
+  std::ofstream(partial) << "x";
+  CHECK(TryCommitFileAtomically(partial, folder) == EISDIR);
+  CHECK_FALSE(fs::exists(partial));
+  CHECK(TryCommitFileAtomically(partial, path) == ENOENT);
+  CHECK(ReadAll(path) == "new");
+}
+
 TEST_CASE("WriteFileAtomically: a failed write leaves the old file intact and no temporary",
           "[atomic_file]") {
   testing::TempDir dir;

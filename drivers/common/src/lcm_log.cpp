@@ -9,6 +9,7 @@
 #include <cstring>
 #include <lcm/lcm-cpp.hpp>
 
+#include "vilma/core/atomic_file.h"
 #include "vilma/core/error.h"
 
 namespace vilma {
@@ -46,12 +47,15 @@ void LcmLogWriter::Write(const std::string& channel, const void* data, int size,
 void LcmLogWriter::Close() {
   if (!log_) return;
   FILE* file = log_->getFilePtr();
-  const bool flushed = std::fflush(file) == 0 && ::fsync(fileno(file)) == 0;
+  const bool flushed = std::fflush(file) == 0;
+  const int flush_errno = errno;
   log_.reset();
-  if (!flushed || std::rename(partial_path_.c_str(), path_.c_str()) != 0) {
+  if (!flushed) {
     throw InputError(FormatInputError(path_, "", std::string("a completed log (") +
-                                                     std::strerror(errno) + ")"));
+                                                     std::strerror(flush_errno) + ")"));
   }
+  // fsync, rename over the final name, fsync of the folder: core's one atomic writer.
+  CommitFileAtomically(partial_path_, path_);
 }
 
 LcmLogReader::LcmLogReader(const std::string& path) : path_(path) {

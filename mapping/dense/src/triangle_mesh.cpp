@@ -1,9 +1,11 @@
 #include "vilma/mapping/dense/triangle_mesh.h"
 
+#include <cstring>
 #include <filesystem>
 #include <open3d/geometry/TriangleMesh.h>
 #include <open3d/io/TriangleMeshIO.h>
 
+#include "vilma/core/atomic_file.h"
 #include "vilma/core/error.h"
 
 namespace vilma::mapping {
@@ -71,10 +73,11 @@ void WriteMeshPly(const TriangleMesh& mesh, const std::string& path) {
     std::filesystem::remove(partial, ec);
     throw InputError(path + ": expected a writable file for the mesh (PLY)");
   }
-  std::filesystem::rename(partial, path, ec);
-  if (ec) {
-    std::filesystem::remove(partial, ec);
-    throw InputError(path + ": expected a writable file for the mesh (PLY): " + ec.message());
+  // fsync, rename, fsync of the folder (core's one atomic writer; the partial file is removed
+  // when that fails).
+  if (const int err = TryCommitFileAtomically(partial, path); err != 0) {
+    throw InputError(path + ": expected a writable file for the mesh (PLY): " +
+                     std::strerror(err));
   }
 }
 

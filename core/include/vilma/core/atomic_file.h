@@ -17,4 +17,13 @@ void WriteFileAtomically(const std::string& path, const std::string& content);
 // acks DISK_FULL on ENOSPC): returns 0 or the errno of the step that failed.
 int TryWriteFileAtomically(const std::string& path, const std::string& content);
 
+// The last steps of the same, for a file that another library wrote (Open3D's PLY writer,
+// liblcm's log writer) under `partial_path` in the folder of `path`: fsync of the file, rename
+// over `path`, fsync of the folder. On failure `partial_path` is removed and an existing `path`
+// is left as it was. Throws InputError naming `path` and the step that failed.
+void CommitFileAtomically(const std::string& partial_path, const std::string& path);
+// The same, returning 0 or the errno of the step that failed (for callers with their own
+// wording of the error).
+int TryCommitFileAtomically(const std::string& partial_path, const std::string& path);
+
 }  // namespace vilma
