@@ -186,7 +186,13 @@ void YamlNode::CheckNoUnknownKeys() const {
   if (!node_.IsMap()) return;
   for (const auto& kv : node_) {
     const std::string key = kv.first.as<std::string>();
-    if (used_keys_->count(key) == 0) Fail(key, "no such key here (unknown key; check spelling)");
+    if (used_keys_->count(key) > 0) continue;
+    // The keys the reader asked for (read or looked up) are the ones it knows: a misspelling is
+    // then fixed without opening the code or the docs.
+    std::string known;
+    for (const std::string& k : *used_keys_) known += (known.empty() ? "" : ", ") + k;
+    Fail(key, "no such key here (unknown key; check spelling; known keys here: " +
+                  (known.empty() ? std::string("none") : known) + ")");
   }
 }
 

@@ -32,7 +32,10 @@ TEST_CASE("YamlNode reads typed values and names bad ones", "[yaml]") {
 TEST_CASE("YamlNode reports unknown keys and keeps line numbers of syntax errors", "[yaml]") {
   const YamlNode root = YamlNode::LoadString("known: 1\nunknwon: 2\n", "opts.yaml");
   CHECK(root.Get<int>("known") == 1);
-  CHECK_THROWS_WITH(root.CheckNoUnknownKeys(), Catch::Contains("opts.yaml: unknwon: no such key"));
+  CHECK(root.GetOr<int>("absent", 3) == 3);  // asked for, so known, though not in the file
+  CHECK_THROWS_WITH(root.CheckNoUnknownKeys(),
+                    Catch::Contains("opts.yaml: unknwon: no such key") &&
+                        Catch::EndsWith("(unknown key; check spelling; known keys here: absent, known)"));
   CHECK_THROWS_WITH(YamlNode::LoadString("a: 1\nb: [2\n", "bad.yaml"),
                     Catch::Contains("bad.yaml") && Catch::Contains("valid YAML"));
   CHECK_THROWS_WITH(YamlNode::LoadFile("/no/such/file.yaml"),

@@ -81,8 +81,9 @@ TEST_CASE("v4l2 YAML options are read, absent keys keep defaults", "[v4l2]") {
 }
 
 TEST_CASE("v4l2 bad YAML options name the file, the key and the expectation", "[v4l2]") {
-  CHECK(YamlError("devise: /dev/video0\n") ==
-        "v4l2.yaml: devise: no such key here (unknown key; check spelling)");
+  CHECK_THAT(YamlError("devise: /dev/video0\n"),
+             Catch::StartsWith("v4l2.yaml: devise: no such key here (unknown key; check spelling; known keys here: ") &&
+                 Catch::Contains("device") && Catch::EndsWith(")"));
   CHECK(YamlError("timestamps: {readout: 1}\n").find("timestamps.readout: no such key") !=
         std::string::npos);
   CHECK(YamlError("width: wide\n").find("v4l2.yaml: width: an integer") != std::string::npos);

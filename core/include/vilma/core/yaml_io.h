@@ -52,7 +52,8 @@ class YamlNode {
   // Elements of this node, which must be a sequence.
   std::vector<YamlNode> Elements() const;
 
-  // Throws InputError naming the first key of this map that no Get/Has/Child call asked for.
+  // Throws InputError naming the first key of this map that no Get/Has/Child call asked for,
+  // and the keys that were asked for (the known ones: "... known keys here: a, b, c)").
   void CheckNoUnknownKeys() const;
   // ThrowIfInvalid (error.h) for options read from this node: a non-empty Validate() message
   // "field: expectation" becomes "file: key_path.field: expectation".
