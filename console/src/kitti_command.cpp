@@ -77,7 +77,7 @@ int RunKittiCommand(const std::vector<std::string>& args, std::ostream& out, std
         << sequence.camera.fx() << " px, baseline " << sequence.baseline_m << " m\n";
     const eval::KittiLocalizationReport report =
         eval::EvaluateKittiLocalization(sequence, options);
-    eval::WriteKittiReport(out, report, options);
+    out << report.FullReport();
     return kExitOk;
   } catch (const UsageError& e) {
     err << "vilma localize-kitti: " << e.what() << "\n\n";

@@ -100,7 +100,7 @@ TEST_CASE("attach images: EuRoC PNG stereo, nearest image per vertex camera", "[
   CHECK(summary.max_time_difference_s == 0.0);
   // The loader's warning about cam1's rows without images is passed on.
   REQUIRE(!summary.warnings.empty());
-  CHECK_THAT(summary.BriefReport(), Catch::Contains("cam1"));
+  CHECK_THAT(summary.FullReport(), Catch::Contains("cam1"));  // a warning line
   CHECK(CountImages(map) == expected);
   CHECK(mapstore::CheckMapConsistency(map).ok());
   for (const mapstore::VertexId& v : map.vertex_ids(mission)) {

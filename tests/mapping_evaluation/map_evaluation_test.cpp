@@ -56,7 +56,7 @@ TEST_CASE("EvaluateMap: an exact map has zero errors") {
   CHECK(e.has_world);
   CHECK(e.surface_distance_m.max < 1e-9);
   CHECK(e.gyro_bias_error.max == 0.0);
-  CHECK_THAT(e.Report(), Catch::Contains("ATE translation [m]: median 0.0000"));
+  CHECK_THAT(e.FullReport(), Catch::Contains("ATE translation [m]: median 0.0000"));
   CHECK_THAT(e.ToJson(), Catch::Contains("\"surface_distance_m\": {\"count\": 30"));
 }
 

@@ -74,7 +74,7 @@ std::vector<int> AllQuads(const TestWorld& t) {
 TEST_CASE("mesh evaluation: the world's own quads are exact and complete", "[mesh_evaluation]") {
   const TestWorld t = MakeWorld();
   const MeshEvaluation e = EvaluateMesh(QuadMesh(t.world, AllQuads(t)), {ViewAlongX()}, t.world, Alignment());
-  INFO(e.Report());
+  INFO(e.FullReport());
   CHECK(e.mesh_vertices == 20);
   CHECK(e.accuracy_m.count == 20);
   CHECK(e.accuracy_m.max < 1e-12);
@@ -85,7 +85,7 @@ TEST_CASE("mesh evaluation: the world's own quads are exact and complete", "[mes
   CHECK(e.seen_samples == 400 + 144);
   CHECK(e.covered_samples == e.seen_samples);
   CHECK(e.completeness == 1.0);
-  CHECK_THAT(e.Report(), Catch::Contains("completeness 100.0 % (544 of 544 seen surface samples; "
+  CHECK_THAT(e.BriefReport(), Catch::Contains("completeness 100.0 % (544 of 544 seen surface samples; "
                                          "896 in the world)"));
 
   // Without views nothing is seen.
@@ -109,7 +109,7 @@ TEST_CASE("mesh evaluation: a mesh 3 cm off the surface, a missing part", "[mesh
   // Both seen quads' normal is -x: shift towards the view.
   const TriangleMesh shifted = QuadMesh(t.world, {t.front, t.side}, Eigen::Vector3d(-0.03, 0.0, 0.0));
   const MeshEvaluation e = EvaluateMesh(shifted, views, t.world, Alignment());
-  INFO(e.Report());
+  INFO(e.FullReport());
   CHECK(e.accuracy_m.median == Approx(0.03).margin(1e-12));
   CHECK(e.accuracy_p90_m == Approx(0.03).margin(1e-12));
   CHECK(e.accuracy_m.max == Approx(0.03).margin(1e-12));
@@ -166,7 +166,7 @@ TEST_CASE("mesh evaluation: the alignment takes mesh and views into the world", 
   view.T_G_D.topLeftCorner<3, 3>() = R_W_G.transpose() * view.T_G_D.topLeftCorner<3, 3>();
   view.T_G_D.topRightCorner<3, 1>() = to_G(Eigen::Vector3d::Zero());
   const MeshEvaluation e = EvaluateMesh(mesh, {view}, t.world, S_W_G);
-  INFO(e.Report());
+  INFO(e.FullReport());
   CHECK(e.accuracy_m.median == Approx(0.03).margin(1e-9));  // in W's metres
   CHECK(e.seen_samples == 544);
   CHECK(e.covered_samples == 544);

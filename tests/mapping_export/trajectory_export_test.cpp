@@ -96,7 +96,7 @@ TEST_CASE("trajectory export: TUM in G, one file per mission, read back equal",
     REQUIRE(eval.ate.rotation_deg.max < 1e-6);
   }
   // Mission 1's baseframe is unknown: the report says its G is its stored T_G_M.
-  REQUIRE(summary.BriefReport().find("baseframe unknown") != std::string::npos);
+  REQUIRE(summary.FullReport().find("baseframe unknown") != std::string::npos);
 }
 
 TEST_CASE("trajectory export: ASL (EuRoC 17 columns) in M with velocity and biases",

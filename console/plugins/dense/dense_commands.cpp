@@ -85,7 +85,7 @@ void RegisterStereo(CommandRegistry* registry) {
                 mapping::ResolveMissions(c.map(), o.mission);
             const mapping::StereoDenseSummary summary =
                 mapping::StereoDenseReconstruction(&c.map(), missions, o, c.progress());
-            c.out() << summary.BriefReport() << "\n";
+            c.out() << summary.FullReport();
           }));
 
   using T = TumDepthCommandOptions;
@@ -112,7 +112,7 @@ void RegisterStereo(CommandRegistry* registry) {
           .Run([](CommandContext& c, const T& o) {
             const mapping::TumDepthImportSummary summary = mapping::ImportTumDepth(
                 &c.map(), mapping::ResolveMissions(c.map(), o.mission), o, c.progress());
-            c.out() << summary.BriefReport() << "\n";
+            c.out() << summary.FullReport();
           }));
 }
 
@@ -156,7 +156,7 @@ void RegisterTsdf(CommandRegistry* registry) {
                 c.map(), mapping::ResolveMissions(c.map(), o.mission), o, &summary,
                 c.progress()));
             c.maps().Get(c.map_key()).derived[kTsdfKey] = volume;
-            c.out() << summary.BriefReport() << "\n";
+            c.out() << summary.FullReport();
           }));
 
   using E = ExportTsdfCommandOptions;

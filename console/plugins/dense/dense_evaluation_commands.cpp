@@ -101,7 +101,7 @@ void Register(CommandRegistry* registry) {
             }
             const mapping::MeshEvaluation e =
                 mapping::EvaluateMesh(mesh, mapping::DepthViews(map, missions), world, S_W_G, o);
-            c.out() << e.Report() << "\n";
+            c.out() << e.FullReport();
             if (!o.error_mesh.empty()) {
               mapping::WriteMeshPly(
                   mapping::ColorMeshByError(mesh, e.vertex_error_m, o.error_mesh_red_at_m),
@@ -168,7 +168,7 @@ void Register(CommandRegistry* registry) {
             if (result.pairs == 0) {
               throw CommandError("no two consecutive vertices have depth maps of the same camera");
             }
-            c.out() << result.BriefReport() << "\n";
+            c.out() << result.FullReport();
           }));
 }
 

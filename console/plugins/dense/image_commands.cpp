@@ -35,7 +35,7 @@ void Register(CommandRegistry* registry) {
                 mapping::ResolveMissions(c.map(), o.map_mission);
             const mapping::ImageAttachmentSummary summary =
                 mapping::AttachImages(o, missions, &c.map(), c.progress());
-            c.out() << summary.BriefReport() << "\n";
+            c.out() << summary.FullReport();
           }));
 }
 

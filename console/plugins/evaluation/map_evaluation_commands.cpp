@@ -53,7 +53,7 @@ void Register(CommandRegistry* registry) {
             const bool has_world = o.world && mapping::LoadDatasetWorld(o.dataset, &world);
             const mapping::MapEvaluation e = mapping::EvaluateMap(
                 map, mission, dataset.ground_truth(), has_world ? &world : nullptr, options);
-            c.out() << e.Report();
+            c.out() << e.FullReport();
             if (!o.json.empty()) {
               WriteFileAtomically(o.json, e.ToJson() + "\n");
               c.out() << "wrote " << o.json << "\n";

@@ -73,7 +73,7 @@ void Register(CommandRegistry* registry) {
               "G (global: T_G_M T_M_I) or M (mission: T_M_I)")
           .Run([](CommandContext& c, const T& o) {
             c.out() << mapping::ExportTrajectories(c.map(), o.Resolve(c.map()), c.progress())
-                           .BriefReport();
+                           .FullReport();
           }));
 
   using K = CalibrationCommandOptions;
@@ -85,7 +85,7 @@ void Register(CommandRegistry* registry) {
           .Alias("encc")
           .Summary("each mission's sensor rig (cameras, T_I_C, IMU) as vilma's rig YAML")
           .Run([](CommandContext& c, const K& o) {
-            c.out() << mapping::ExportCalibrations(c.map(), o.Resolve(c.map())).BriefReport();
+            c.out() << mapping::ExportCalibrations(c.map(), o.Resolve(c.map())).FullReport();
           }));
 
   using S = CsvCommandOptions;
@@ -101,7 +101,7 @@ void Register(CommandRegistry* registry) {
           .FlagAt("export_imu", [](S& o) -> bool& { return o.export_options.imu; },
                   "write imu.csv (every IMU sample of every IMU edge)", {"csv_export_imu_data"})
           .Run([](CommandContext& c, const S& o) {
-            c.out() << mapping::ExportCsv(c.map(), o.Resolve(c.map()), c.progress()).BriefReport();
+            c.out() << mapping::ExportCsv(c.map(), o.Resolve(c.map()), c.progress()).FullReport();
           }));
 
   using P = PlyCommandOptions;
@@ -119,7 +119,7 @@ void Register(CommandRegistry* registry) {
               "binary little-endian PLY (false: ASCII)")
           .Run([](CommandContext& c, const P& o) {
             c.out() << mapping::ExportLandmarksPly(c.map(), o.Resolve(c.map()), c.progress())
-                           .BriefReport();
+                           .FullReport();
           }));
 
   using C = ColmapCommandOptions;
@@ -146,7 +146,7 @@ void Register(CommandRegistry* registry) {
               "points need this many observations from exported images")
           .Run([](CommandContext& c, const C& o) {
             c.out()
-                << mapping::ExportColmap(c.map(), o.Resolve(c.map()), c.progress()).BriefReport();
+                << mapping::ExportColmap(c.map(), o.Resolve(c.map()), c.progress()).FullReport();
           }));
 }
 

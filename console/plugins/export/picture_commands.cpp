@@ -56,7 +56,7 @@ void Register(CommandRegistry* registry) {
           .Run([](CommandContext& c, const P& o) {
             const mapping::MapPlotSummary summary =
                 mapping::PlotMap(c.map(), o.plot, o.out, c.progress());
-            c.out() << summary.BriefReport() << "\n";
+            c.out() << summary.FullReport();
           }));
 
   using H = ExportHtmlCommandOptions;
@@ -85,7 +85,7 @@ void Register(CommandRegistry* registry) {
           .Run([](CommandContext& c, const H& o) {
             const mapping::HtmlViewerSummary summary =
                 mapping::ExportHtmlViewer(c.map(), o.viewer, o.out, c.progress());
-            c.out() << summary.BriefReport() << "\n";
+            c.out() << summary.FullReport();
           }));
 }
 

@@ -41,7 +41,7 @@ void Register(CommandRegistry* registry) {
           .Run([](CommandContext& c, const O& o) {
             mapping::PmvsExportOptions options = o;
             options.missions = mapping::SelectMissions(c.map(), o.mission, "mission");
-            c.out() << mapping::ExportPmvs(c.map(), options, c.progress()).BriefReport();
+            c.out() << mapping::ExportPmvs(c.map(), options, c.progress()).FullReport();
           }));
 }
 

@@ -83,7 +83,7 @@ void Register(CommandRegistry* registry) {
             c.out() << mapping::EvaluateLandmarkQualities(o, &c.map(),
                                                           Missions(c.map(), o.map_mission),
                                                           c.progress())
-                           .Report();
+                           .FullReport();
           }));
 
   registry->Add(
@@ -105,7 +105,7 @@ void Register(CommandRegistry* registry) {
             c.out() << mapping::RetriangulateLandmarks(o, &c.map(),
                                                        Missions(c.map(), o.map_mission),
                                                        c.progress())
-                           .Report();
+                           .FullReport();
           }));
 
   registry->Add(
@@ -128,7 +128,7 @@ void Register(CommandRegistry* registry) {
             c.out() << mapping::InitializeTrackLandmarks(o, &c.map(),
                                                          Missions(c.map(), o.map_mission),
                                                          c.progress())
-                           .Report();
+                           .FullReport();
           }));
 
   registry->Add(Command<MissionOnly>("remove_bad_landmarks")

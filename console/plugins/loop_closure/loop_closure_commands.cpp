@@ -37,7 +37,7 @@ void Register(CommandRegistry* registry) {
             const std::vector<mapstore::MissionId> missions =
                 mapping::ResolveMissions(c.map(), o.map_mission);
             try {
-              c.out() << mapping::CloseLoops(o, &c.map(), missions, c.progress()).Report();
+              c.out() << mapping::CloseLoops(o, &c.map(), missions, c.progress()).FullReport();
             } catch (const std::invalid_argument& e) {
               throw CommandError(e.what());
             }
@@ -61,7 +61,7 @@ void Register(CommandRegistry* registry) {
                 "query every n-th vertex")
           .Run([](CommandContext& c, const AamOptions& o) {
             try {
-              c.out() << mapping::AnchorAllMissions(o, &c.map(), c.progress()).Report();
+              c.out() << mapping::AnchorAllMissions(o, &c.map(), c.progress()).FullReport();
             } catch (const std::invalid_argument& e) {
               throw CommandError(e.what());
             }

@@ -443,6 +443,9 @@ KittiLocalizationReport EvaluateKittiLocalization(const KittiSequence& seq,
     extract_ms.push_back(q.extract_ms);
     report.queries.push_back(q);
   }
+  report.max_position_error_m = options.max_position_error_m;
+  report.max_rotation_error_deg = options.max_rotation_error_deg;
+  report.successes = successes;
   report.recall = report.queries.empty()
                       ? 0.0
                       : static_cast<double>(successes) / static_cast<double>(report.queries.size());
@@ -454,19 +457,28 @@ KittiLocalizationReport EvaluateKittiLocalization(const KittiSequence& seq,
   return report;
 }
 
-void WriteKittiReport(std::ostream& out, const KittiLocalizationReport& report,
-                      const KittiLocalizationOptions& options) {
-  const std::ios::fmtflags flags = out.flags();
-  out << "map: " << report.map_frames << " even frames, " << report.map_vertices_landmarks
-      << " stereo landmarks (" << report.merged_observations
-      << " re-observations merged), localization map " << report.localization_landmarks
-      << " landmarks / " << report.localization_descriptors << " descriptors\n";
-  out << std::fixed << std::setprecision(1) << "map build " << report.map_build_ms
-      << " ms, projection training " << report.projection_train_ms << " ms, index build "
-      << report.index_build_ms << " ms\n\n";
+std::string KittiLocalizationReport::BriefReport() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1) << "recall " << 100.0 * recall << " % (" << successes
+      << "/" << queries.size() << " within " << std::setprecision(2) << max_position_error_m
+      << " m and " << max_rotation_error_deg << " deg), median " << std::setprecision(3)
+      << median_position_error_m << " m / " << median_rotation_error_deg << " deg, query p50 "
+      << std::setprecision(1) << p50_query_ms << " ms";
+  return out.str();
+}
+
+std::string KittiLocalizationReport::FullReport() const {
+  std::ostringstream out;
+  out << "map: " << map_frames << " even frames, " << map_vertices_landmarks
+      << " stereo landmarks (" << merged_observations
+      << " re-observations merged), localization map " << localization_landmarks
+      << " landmarks / " << localization_descriptors << " descriptors\n";
+  out << std::fixed << std::setprecision(1) << "map build " << map_build_ms
+      << " ms, projection training " << projection_train_ms << " ms, index build "
+      << index_build_ms << " ms\n\n";
   out << "frame  status                    kpts  raw  cov  inl   pos[m]  rot[deg]  ok  extract  "
          "match   pose [ms]\n";
-  for (const KittiQueryResult& q : report.queries) {
+  for (const KittiQueryResult& q : queries) {
     out << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
         << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
         << std::setw(5) << q.raw_matches << std::setw(5) << q.matches << std::setw(5)
@@ -480,19 +492,15 @@ void WriteKittiReport(std::ostream& out, const KittiLocalizationReport& report,
     out << std::setw(4) << (q.success ? "y" : "n") << std::setprecision(1) << std::setw(9)
         << q.extract_ms << std::setw(7) << q.match_ms << std::setw(7) << q.pose_ms << "\n";
   }
-  int successes = 0;
-  for (const KittiQueryResult& q : report.queries) successes += q.success ? 1 : 0;
-  out << "\nrecall (within " << std::setprecision(2) << options.max_position_error_m << " m and "
-      << options.max_rotation_error_deg << " deg): " << successes << "/" << report.queries.size()
-      << " = " << std::setprecision(1) << 100.0 * report.recall << " %\n";
-  out << std::setprecision(3) << "median error of localized queries: "
-      << report.median_position_error_m << " m, " << report.median_rotation_error_deg
-      << " deg\n";
-  out << std::setprecision(1) << "query (match + pose) p50 " << report.p50_query_ms << " ms, p90 "
-      << report.p90_query_ms << " ms; feature extraction p50 " << report.p50_extract_ms
-      << " ms\n";
-  out << "statuses: " << report.stats.ToString() << "\n";
-  out.flags(flags);
+  out << "\nrecall (within " << std::setprecision(2) << max_position_error_m << " m and "
+      << max_rotation_error_deg << " deg): " << successes << "/" << queries.size() << " = "
+      << std::setprecision(1) << 100.0 * recall << " %\n";
+  out << std::setprecision(3) << "median error of localized queries: " << median_position_error_m
+      << " m, " << median_rotation_error_deg << " deg\n";
+  out << std::setprecision(1) << "query (match + pose) p50 " << p50_query_ms << " ms, p90 "
+      << p90_query_ms << " ms; feature extraction p50 " << p50_extract_ms << " ms\n";
+  out << "statuses: " << stats.ToString() << "\n";
+  return out.str();
 }
 
 }  // namespace vilma::eval

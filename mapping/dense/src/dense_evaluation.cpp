@@ -60,6 +60,8 @@ std::string DepthConsistency::BriefReport() const {
   return s.str();
 }
 
+std::string DepthConsistency::FullReport() const { return BriefReport() + "\n"; }
+
 namespace {
 
 struct PosedDepthMap {

@@ -64,8 +64,13 @@ std::string ImageAttachmentSummary::BriefReport() const {
     << " ms); " << frames << " frames of " << vertices << " vertices in " << missions
     << " missions: " << missing << " without an image within the tolerance, " << skipped_existing
     << " already had one (kept)";
-  for (const std::string& w : warnings) s << "\n  warning: " << w;
   return s.str();
+}
+
+std::string ImageAttachmentSummary::FullReport() const {
+  std::string full = BriefReport() + "\n";
+  for (const std::string& w : warnings) full += "  warning: " + w + "\n";
+  return full;
 }
 
 ImageAttachmentSummary AttachImages(const ImageAttachmentOptions& options,

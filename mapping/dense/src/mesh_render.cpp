@@ -160,6 +160,8 @@ std::string MeshRenderResult::BriefReport() const {
   return s.str();
 }
 
+std::string MeshRenderResult::FullReport() const { return BriefReport() + "\n"; }
+
 TriangleMesh ClipAboveZ(const TriangleMesh& mesh, double z_m) {
   TriangleMesh clipped = mesh;
   clipped.triangles.clear();

@@ -255,6 +255,8 @@ std::string StereoDenseSummary::BriefReport() const {
   return s.str();
 }
 
+std::string StereoDenseSummary::FullReport() const { return BriefReport() + "\n"; }
+
 StereoDenseSummary StereoDenseReconstruction(mapstore::VIMap* map,
                                              const std::vector<mapstore::MissionId>& missions,
                                              const StereoDepthOptions& options,

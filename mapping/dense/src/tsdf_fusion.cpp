@@ -52,6 +52,8 @@ std::string TsdfSummary::BriefReport() const {
   return s.str();
 }
 
+std::string TsdfSummary::FullReport() const { return BriefReport() + "\n"; }
+
 namespace {
 
 // OpenMP threads of Open3D's integration for one call (TsdfOptions::threads), the caller's

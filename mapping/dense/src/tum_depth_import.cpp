@@ -64,6 +64,8 @@ std::string TumDepthImportSummary::BriefReport() const {
   return s.str();
 }
 
+std::string TumDepthImportSummary::FullReport() const { return BriefReport() + "\n"; }
+
 TumDepthImportSummary ImportTumDepth(mapstore::VIMap* map,
                                      const std::vector<mapstore::MissionId>& missions,
                                      const TumDepthImportOptions& options,

@@ -116,7 +116,12 @@ MapEvaluation EvaluateMap(const VIMap& map, const mapstore::MissionId& mission,
   return e;
 }
 
-std::string MapEvaluation::Report() const {
+std::string MapEvaluation::BriefReport() const {
+  const std::string full = FullReport();
+  return full.substr(0, full.find('\n'));
+}
+
+std::string MapEvaluation::FullReport() const {
   std::ostringstream out;
   const ErrorStats& t = trajectory.ate.translation_m;
   out << "mission " << mission.Hex().substr(0, 8) << (mission_name.empty() ? "" : " " + mission_name)

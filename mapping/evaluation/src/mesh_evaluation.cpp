@@ -20,7 +20,7 @@ std::string MeshEvaluationOptions::Validate() const {
   return "";
 }
 
-std::string MeshEvaluation::Report() const {
+std::string MeshEvaluation::BriefReport() const {
   std::ostringstream s;
   s << std::fixed << std::setprecision(4) << "mesh: " << mesh_vertices
     << " vertices; accuracy (to the true surfaces) median " << accuracy_m.median << " m, p90 "
@@ -29,6 +29,8 @@ std::string MeshEvaluation::Report() const {
     << surface_samples << " in the world)";
   return s.str();
 }
+
+std::string MeshEvaluation::FullReport() const { return BriefReport() + "\n"; }
 
 TriangleMesh ColorMeshByError(const TriangleMesh& mesh, const std::vector<double>& vertex_error_m,
                               double red_at_m) {

@@ -17,6 +17,11 @@ std::string CalibrationExportOptions::Validate() const {
 }
 
 std::string CalibrationExportSummary::BriefReport() const {
+  const std::string full = FullReport();
+  return full.substr(0, full.find('\n'));
+}
+
+std::string CalibrationExportSummary::FullReport() const {
   std::ostringstream s;
   s << "calibration: " << files.size() << (files.size() == 1 ? " rig" : " rigs")
     << " (vilma rig YAML, extrinsics T_I_C)\n";

@@ -195,6 +195,11 @@ std::string ColmapExportOptions::Validate() const {
 }
 
 std::string ColmapExportSummary::BriefReport() const {
+  const std::string full = FullReport();
+  return full.substr(0, full.find('\n'));
+}
+
+std::string ColmapExportSummary::FullReport() const {
   std::ostringstream s;
   s << "colmap: " << cameras << " cameras, " << images << " images (" << image_files
     << " image files), " << points << " points, " << observations << " observations in " << folder

@@ -73,6 +73,11 @@ std::string CsvExportOptions::Validate() const {
 }
 
 std::string CsvExportSummary::BriefReport() const {
+  const std::string full = FullReport();
+  return full.substr(0, full.find('\n'));
+}
+
+std::string CsvExportSummary::FullReport() const {
   std::ostringstream s;
   s << "csv: " << rows.size() << " files, " << bytes / 1e6 << " MB in " << folder
     << " (poses and landmarks in G and M)\n";

@@ -167,6 +167,8 @@ std::string HtmlViewerSummary::BriefReport() const {
   return out.str();
 }
 
+std::string HtmlViewerSummary::FullReport() const { return BriefReport() + "\n"; }
+
 std::string RenderHtmlViewer(const VIMap& map, const HtmlViewerOptions& options,
                              HtmlViewerSummary* summary_out, ProgressObserver* progress) {
   ThrowIfInvalid(options.Validate(), "export_html options");

@@ -282,6 +282,8 @@ std::string MapPlotSummary::BriefReport() const {
   return out.str();
 }
 
+std::string MapPlotSummary::FullReport() const { return BriefReport() + "\n"; }
+
 MapPlot RenderMapPlot(const VIMap& map, const MapPlotOptions& options, ProgressObserver* progress) {
   ThrowIfInvalid(options.Validate(), "plot_map options");
   const std::vector<MissionId> selected = SelectMissions(map, options.mission);

@@ -52,8 +52,10 @@ std::string PlyExportSummary::BriefReport() const {
     << (missions == 1 ? " mission" : " missions") << " in frame G -> " << path << " (" << bytes
     << " bytes)";
   if (skipped_not_good > 0) s << ", " << skipped_not_good << " not good left out";
-  return s.str() + "\n";
+  return s.str();
 }
+
+std::string PlyExportSummary::FullReport() const { return BriefReport() + "\n"; }
 
 std::array<uint8_t, 3> LandmarkQualityColorRgb(LandmarkQuality quality) {
   switch (quality) {

@@ -209,6 +209,11 @@ std::string PmvsExportOptions::Validate() const {
 }
 
 std::string PmvsExportSummary::BriefReport() const {
+  const std::string full = FullReport();
+  return full.substr(0, full.find('\n'));
+}
+
+std::string PmvsExportSummary::FullReport() const {
   std::ostringstream s;
   s << "pmvs: " << images << " images (" << frames_without_image << " frames without image), "
     << points << " points, " << observations << " observations in " << folder

@@ -85,6 +85,11 @@ std::string TrajectoryExportOptions::Validate() const {
 }
 
 std::string TrajectoryExportSummary::BriefReport() const {
+  const std::string full = FullReport();
+  return full.substr(0, full.find('\n'));
+}
+
+std::string TrajectoryExportSummary::FullReport() const {
   std::ostringstream s;
   s << "trajectory: " << files.size() << (files.size() == 1 ? " file, " : " files, ") << poses
     << " poses (" << format << ", frame " << frame << ", body frame I)\n";

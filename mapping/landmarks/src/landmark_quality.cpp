@@ -61,12 +61,17 @@ TriangulationResult JudgePosition(const std::vector<TriangulationObservation>& o
   return result;
 }
 
-std::string LandmarkQualitySummary::Report() const {
+std::string LandmarkQualitySummary::BriefReport() const {
   std::ostringstream out;
   out << command << ": " << landmarks << " landmarks; good " << good_before << " -> " << good_after
       << ", bad " << bad_before << " -> " << bad_after << ", unknown " << unknown_before << " -> "
-      << unknown_after << "; " << seconds << " s\n";
-  out << "  verdicts:";
+      << unknown_after << "; " << seconds << " s";
+  return out.str();
+}
+
+std::string LandmarkQualitySummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n  verdicts:";
   for (int v = 0; v < kNumLandmarkVerdicts; ++v) {
     out << " " << LandmarkVerdictName(static_cast<LandmarkVerdict>(v)) << " " << verdicts[v]
         << (v + 1 < kNumLandmarkVerdicts ? "," : "\n");

@@ -49,24 +49,29 @@ std::string TrackLandmarkOptions::Validate() const {
   return r.Validate();
 }
 
-std::string RetriangulationSummary::Report() const {
+std::string RetriangulationSummary::BriefReport() const {
   std::ostringstream out;
   out << "rtl: " << landmarks << " landmarks, " << triangulated << " triangulated, " << failed
       << " failed (kept, marked bad); shift in G median " << median_shift_m << " m, max "
-      << max_shift_m << " m; " << seconds << " s\n";
-  if (quality.landmarks > 0) out << quality.Report();
+      << max_shift_m << " m; " << seconds << " s";
   return out.str();
 }
 
-std::string TrackLandmarkSummary::Report() const {
+std::string RetriangulationSummary::FullReport() const {
+  return BriefReport() + "\n" + (quality.landmarks > 0 ? quality.FullReport() : std::string());
+}
+
+std::string TrackLandmarkSummary::BriefReport() const {
   std::ostringstream out;
   out << "itl: " << tracks_free << " tracks without a landmark: " << landmarks_created
       << " landmarks created (" << landmarks_created_good << " good, " << observations_created
       << " observations), " << too_short << " too short, " << triangulation_failed
       << " not triangulated; " << observations_attached
-      << " keypoints added to their track's landmark; " << seconds << " s\n";
+      << " keypoints added to their track's landmark; " << seconds << " s";
   return out.str();
 }
+
+std::string TrackLandmarkSummary::FullReport() const { return BriefReport() + "\n"; }
 
 RetriangulationSummary RetriangulateLandmarks(const RetriangulationOptions& options, VIMap* map,
                                               const std::vector<MissionId>& missions,

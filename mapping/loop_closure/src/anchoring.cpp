@@ -25,14 +25,20 @@ std::string AnchoringOptions::Validate() const {
   return "";
 }
 
-std::string AnchoringSummary::Report() const {
+std::string AnchoringSummary::BriefReport() const {
   std::ostringstream out;
   out << "aam: ";
   if (first_made_known) out << "no mission was known: the first anchors G; ";
   std::size_t anchored = 0;
   for (const MissionAnchoring& m : missions) anchored += m.anchored;
   out << anchored << " of " << missions.size() << " unknown missions anchored; " << seconds
-      << " s\n";
+      << " s";
+  return out.str();
+}
+
+std::string AnchoringSummary::FullReport() const {
+  std::ostringstream out;
+  out << BriefReport() << "\n";
   for (const MissionAnchoring& m : missions) {
     out << "  mission " << m.mission.Hex().substr(0, 8) << ": " << m.vertices_tried
         << " vertices tried, " << m.localized << " localized, " << m.support << " agree -> "

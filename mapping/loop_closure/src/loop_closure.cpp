@@ -30,15 +30,17 @@ std::string LoopClosureOptions::Validate() const {
   return "";
 }
 
-std::string LoopClosureSummary::Report() const {
+std::string LoopClosureSummary::BriefReport() const {
   std::ostringstream out;
   out << "lc: " << queries << " frames queried, " << verified << " loops verified; rejected: "
       << rejected[0] << " no pose, " << rejected[1] << " too few inliers, " << rejected[2]
       << " too large a correction; " << landmarks_merged << " landmarks merged, "
       << observations_added << " observations added, " << edges_added
-      << " loop-closure edges; " << seconds << " s (" << ms_per_query() << " ms per frame)\n";
+      << " loop-closure edges; " << seconds << " s (" << ms_per_query() << " ms per frame)";
   return out.str();
 }
+
+std::string LoopClosureSummary::FullReport() const { return BriefReport() + "\n"; }
 
 namespace {
 

@@ -84,9 +84,9 @@ TEST_CASE("kitti localization: odd frames against a map of the even frames (real
   CHECK(seq.baseline_m == Approx(0.537).epsilon(0.01));
   const KittiLocalizationOptions options;
   const KittiLocalizationReport report = EvaluateKittiLocalization(seq, options);
-  std::ostringstream table;
-  WriteKittiReport(table, report, options);
-  std::cout << table.str();
+  std::cout << report.FullReport();
+  CHECK(report.BriefReport().find('\n') == std::string::npos);
+  CHECK(report.successes == static_cast<int>(std::lround(report.recall * report.queries.size())));
   CHECK(report.map_frames == static_cast<int>((seq.size() + 1) / 2));
   CHECK(report.queries.size() == seq.size() / 2);
   CHECK(report.merged_observations > 0);

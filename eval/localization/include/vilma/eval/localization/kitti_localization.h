@@ -122,12 +122,22 @@ struct KittiLocalizationReport {
   std::vector<KittiQueryResult> queries;
   LocalizerStats stats;
   // Summary.
+  double max_position_error_m = 0.0;    // the success gates the queries were judged with
+  double max_rotation_error_deg = 0.0;  // (KittiLocalizationOptions)
+  int successes = 0;    // localized within both gates
   double recall = 0.0;  // successes / queries
   double median_position_error_m = 0.0;    // over localized queries
   double median_rotation_error_deg = 0.0;  // over localized queries
   double p50_query_ms = 0.0;  // match + pose
   double p90_query_ms = 0.0;
   double p50_extract_ms = 0.0;
+
+  // One line: "recall 97.3 % (36/37 within 0.3 m and 2 deg), median 0.041 m / 0.12 deg,
+  // query p50 4.1 ms".
+  std::string BriefReport() const;
+  // What `vilma localize-kitti` prints: the map, the per-query table, recall, median errors,
+  // times and the localizer's status counts.
+  std::string FullReport() const;
 };
 
 // The VI-map of the even frames (one mission, T_G_M = identity, vertices T_M_I = T_W_C0 with
@@ -147,9 +157,5 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& sequence,
 // The whole check. Throws InputError for unreadable inputs or invalid options.
 KittiLocalizationReport EvaluateKittiLocalization(const KittiSequence& sequence,
                                                   const KittiLocalizationOptions& options);
-
-// Per-query table and summary (what `vilma localize-kitti` prints).
-void WriteKittiReport(std::ostream& out, const KittiLocalizationReport& report,
-                      const KittiLocalizationOptions& options);
 
 }  // namespace vilma::eval

@@ -37,6 +37,7 @@ struct DepthConsistency {
   double p90_abs_m = 0.0;
   double median_relative = 0.0;  // median of |difference| / depth
   std::string BriefReport() const;
+  std::string FullReport() const;  // the brief report as a line (what the command prints)
 };
 
 // The same over given pairs of posed depth maps (the first's points checked in the second).

@@ -41,7 +41,8 @@ struct ImageAttachmentSummary {
   // Problems that did not stop the command (the dataset loader's, unused dataset cameras).
   std::vector<std::string> warnings;
   // Several lines: counts, then one line per warning.
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts, sizes, time differences
+  std::string FullReport() const;   // the brief line, then one line per warning
 };
 
 // Attaches the images to the vertices of `missions` (empty: every mission). Reads and encodes

@@ -65,6 +65,7 @@ struct MeshRenderResult {
   int64_t triangles_culled = 0;  // behind the camera or degenerate in the picture
   int64_t pixels_covered = 0;    // not background
   std::string BriefReport() const;
+  std::string FullReport() const;  // the brief report as a line (what the command prints)
 };
 
 // Renders `mesh`. Throws std::invalid_argument for invalid options or an unusable mesh.

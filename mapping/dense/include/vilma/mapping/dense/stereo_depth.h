@@ -102,6 +102,7 @@ struct StereoDenseSummary {
   double valid_pixel_share = 0.0;  // mean share of pixels with depth
   std::vector<double> milliseconds_per_depth_map;
   std::string BriefReport() const;
+  std::string FullReport() const;  // the brief report as a line (what the command prints)
 };
 
 // Computes depth maps for every vertex of `missions` (empty: all) from the image resources of

@@ -53,6 +53,7 @@ struct TsdfSummary {
   double memory_mb = 0.0;    // voxel memory of the volume
   std::vector<double> milliseconds_per_integration;
   std::string BriefReport() const;
+  std::string FullReport() const;  // the brief report as a line (what the command prints)
 };
 
 // A TSDF volume being built. Not copyable; move-only.

@@ -31,6 +31,7 @@ struct TumDepthImportSummary {
   int no_image_in_time = 0;   // vertices without a depth image within max_time_difference_s
   int skipped_existing = 0;
   std::string BriefReport() const;
+  std::string FullReport() const;  // the brief report as a line (what the command prints)
 };
 
 // Throws InputError naming file and line for a malformed depth.txt or image, and when no

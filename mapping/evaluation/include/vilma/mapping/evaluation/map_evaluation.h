@@ -34,7 +34,8 @@ struct MapEvaluation {
   ErrorStats reprojection_px;      // per observation of a good landmark [px]
   bool has_world = false;
   ErrorStats surface_distance_m;   // good landmarks to the world's surfaces (has_world)
-  std::string Report() const;      // a few lines
+  std::string BriefReport() const;  // the first line: mission, vertices, matched, alignment
+  std::string FullReport() const;   // the brief line, then ATE, velocity, biases, landmarks
   std::string ToJson() const;      // one JSON object (docs/evaluation.md)
 };
 

@@ -36,7 +36,8 @@ struct MeshEvaluation {
   std::size_t covered_samples = 0;  // seen and within the threshold of the mesh
   double completeness = 0.0;        // covered / seen
   std::vector<double> vertex_error_m;  // per mesh vertex: distance to the true surfaces
-  std::string Report() const;
+  std::string BriefReport() const;  // "mesh: N vertices; accuracy ...; completeness ..."
+  std::string FullReport() const;   // the brief report as a line
 };
 
 // The mesh with its vertices coloured by error: green (0) through yellow to red (>= red_at_m).

@@ -32,7 +32,8 @@ struct CalibrationExportFile {
 
 struct CalibrationExportSummary {
   std::vector<CalibrationExportFile> files;
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // Writes each mission's rig YAML atomically, after checking every rig (nothing is written when

@@ -72,7 +72,8 @@ struct ColmapExportSummary {
   double mean_reprojection_error_px = 0.0;  // over all track elements
   double max_reprojection_error_px = 0.0;
   std::vector<std::string> camera_models;  // per COLMAP camera, e.g. "OPENCV"
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // Writes the model: images first (each atomically), then the three text files (each

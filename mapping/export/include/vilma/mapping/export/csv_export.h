@@ -48,7 +48,8 @@ struct CsvExportSummary {
   // Data rows (without the header) per file name, e.g. rows["vertices.csv"].
   std::map<std::string, std::size_t> rows;
   std::size_t bytes = 0;
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // The files' texts by name (what ExportCsv writes), for tests and other writers.

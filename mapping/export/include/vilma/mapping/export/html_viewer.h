@@ -49,7 +49,8 @@ struct HtmlViewerSummary {
   std::size_t landmarks_embedded = 0;  // after subsampling
   std::string three_js_revision;       // REVISION of the inlined three.js ("111")
   std::size_t bytes = 0;               // size of the page
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // The page as text. Throws InputError naming the file when three.js or OrbitControls cannot

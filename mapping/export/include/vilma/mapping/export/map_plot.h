@@ -65,7 +65,8 @@ struct MapPlotSummary {
   double scale_bar_m = 0.0;         // length of the scale bar [m]
   double px_per_m = 0.0;
   std::size_t bytes = 0;  // PNG size
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 struct MapPlot {

@@ -43,7 +43,8 @@ struct PlyExportSummary {
   std::size_t skipped_not_good = 0;  // left out by good_only
   std::size_t missions = 0;
   std::size_t bytes = 0;
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // Colours (RGB) of landmark qualities: unknown grey, bad red, good green.

@@ -72,7 +72,8 @@ struct PmvsExportSummary {
   // Points re-projected through P against their undistorted keypoints.
   double mean_reprojection_error_px = 0.0;
   double max_reprojection_error_px = 0.0;
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // Writes the PMVS2 folder. InputError for invalid options, a mission not in the map or

@@ -62,7 +62,8 @@ struct TrajectoryExportSummary {
   std::vector<TrajectoryExportFile> files;
   std::size_t poses = 0;  // over all files
   // "trajectory: 2 files, 196 poses (tum, frame G) ..." plus one line per file.
-  std::string BriefReport() const;
+  std::string BriefReport() const;  // one line: counts and where it went
+  std::string FullReport() const;   // the brief line and the details (what the command prints)
 };
 
 // One state per vertex of the mission, ordered by time, in `frame`.

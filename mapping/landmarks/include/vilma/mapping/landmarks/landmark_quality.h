@@ -42,7 +42,8 @@ struct LandmarkQualitySummary {
   std::size_t bad_before = 0, bad_after = 0;
   std::size_t unknown_before = 0, unknown_after = 0;
   double seconds = 0.0;
-  std::string Report() const;  // counts per verdict, good/bad/unknown before -> after
+  std::string BriefReport() const;  // good/bad/unknown before -> after, time
+  std::string FullReport() const;   // the brief line, then the counts per verdict
 };
 
 // The landmarks stored in the given missions (empty: every mission), in mission order.

@@ -46,7 +46,8 @@ struct RetriangulationSummary {
   double max_shift_m = 0.0;
   double seconds = 0.0;
   LandmarkQualitySummary quality;  // of the elq pass (command "rtl"); empty when it is off
-  std::string Report() const;
+  std::string BriefReport() const;  // counts, shifts, time
+  std::string FullReport() const;   // the brief line, then the elq report when elq ran
 };
 
 // Throws std::invalid_argument (map unchanged) for invalid options. Cancelled (from
@@ -72,7 +73,8 @@ struct TrackLandmarkSummary {
   std::size_t observations_created = 0;   // of the new landmarks
   std::size_t observations_attached = 0;  // free keypoints added to an existing landmark
   double seconds = 0.0;
-  std::string Report() const;
+  std::string BriefReport() const;  // counts, time
+  std::string FullReport() const;   // the brief report as a line
 };
 
 // Throws std::invalid_argument (map unchanged) for invalid options. Cancelled leaves the map

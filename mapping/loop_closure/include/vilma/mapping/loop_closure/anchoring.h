@@ -44,7 +44,8 @@ struct AnchoringSummary {
   bool first_made_known = false;  // no mission was known: the first one anchors G
   std::vector<MissionAnchoring> missions;
   double seconds = 0.0;
-  std::string Report() const;
+  std::string BriefReport() const;  // "aam: A of N unknown missions anchored; T s"
+  std::string FullReport() const;   // the brief line, then one line per mission
 };
 
 // Throws std::invalid_argument (map unchanged) for invalid options. Missions already known are

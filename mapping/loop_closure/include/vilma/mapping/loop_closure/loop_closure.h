@@ -58,7 +58,8 @@ struct LoopClosureSummary {
   std::size_t edges_added = 0;
   double seconds = 0.0;
   double ms_per_query() const { return queries == 0 ? 0.0 : 1000.0 * seconds / queries; }
-  std::string Report() const;
+  std::string BriefReport() const;  // "lc: N frames queried, M loops verified; ...; T s (...)"
+  std::string FullReport() const;   // the brief report as a line (what `lc` prints)
 };
 
 // Throws std::invalid_argument (map unchanged) for invalid options or an empty database.
