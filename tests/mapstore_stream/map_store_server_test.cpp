@@ -277,6 +277,77 @@ TEST_CASE("a mission whose sender is gone is finalized as incomplete and loads",
   RequireMapsEqual(Expected(deltas, false), loaded);
 }
 
+TEST_CASE("keepalives keep a silent sender's mission open; they never journal or open a mission",
+          "[mapstore_stream]") {
+  SyntheticMissionOptions mo;
+  mo.vertices = 6;
+  mo.keypoints_per_frame = 4;
+  mo.landmarks_per_vertex = 1;
+  auto deltas = MakeSyntheticMissionDeltas(mo);
+  const MissionId id = deltas[0].mission.id;
+  MapStoreServerOptions so;
+  so.root = FreshRoot("keepalive");
+  so.incomplete_timeout_s = 0.2;
+  std::vector<vilma::mission_ack_t> acks;
+  MapStoreServer server(so, [&](const vilma::mission_ack_t& a) { acks.push_back(a); }, nullptr);
+  server.Start();
+  MissionStreamSenderOptions o = FastSender();
+  o.keepalive_period_s = 0.05;
+  std::vector<vilma::mission_chunk_t> wire;
+  MissionStreamSender sender(id, mo.name, o, [&](const vilma::mission_chunk_t& c) { wire.push_back(c); }, 9);
+  auto deliver = [&] {
+    std::vector<vilma::mission_chunk_t> chunks;
+    chunks.swap(wire);
+    for (const auto& c : chunks) server.OnChunk(c);
+    server.Flush();
+    std::vector<vilma::mission_ack_t> out;
+    out.swap(acks);
+    for (const auto& a : out) sender.OnAck(a);
+  };
+  for (int i = 0; i < 3; ++i) REQUIRE(sender.Send(deltas[i]));
+  deliver();
+  REQUIRE(sender.acked_seq() == 2);
+  const uint64_t journaled = server.counters().chunks_journaled;
+  // 0.6 s of silence (three times the timeout), with the sender polled every 20 ms.
+  const auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(600);
+  while (std::chrono::steady_clock::now() < end) {
+    sender.Poll();
+    deliver();
+    server.FinalizeStale();
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  CHECK(server.missions_open() == 1);
+  CHECK(server.counters().missions_incomplete == 0);
+  CHECK(server.counters().keepalives >= 5);
+  CHECK(server.counters().chunks_journaled == journaled);
+  CHECK(sender.counters().keepalives == server.counters().keepalives);
+  // The mission goes on after the pause and completes.
+  for (std::size_t i = 3; i < deltas.size(); ++i) REQUIRE(sender.Send(deltas[i]));
+  REQUIRE(sender.End());
+  deliver();
+  deliver();
+  CHECK(sender.finished());
+  RequireMapsEqual(Expected(deltas, true), LoadMap(server.MissionFolder(id)));
+
+  // A keepalive of a mission mapstored does not know opens nothing; one with a payload is
+  // malformed.
+  vilma::mission_chunk_t stray;
+  stray.mission_id = IdGenerator(77).Next().Hex();
+  stray.session_id = 5;
+  stray.seq = 0;
+  stray.flags = vilma::mission_chunk_t::FLAG_KEEPALIVE;
+  stray.checksum = static_cast<int32_t>(Crc32(std::string()));
+  server.OnChunk(stray);
+  CHECK(server.missions_open() == 0);
+  CHECK(server.counters().chunks_unknown_mission == 1);
+  stray.payload = {1, 2};
+  stray.payload_size = 2;
+  stray.checksum = static_cast<int32_t>(Crc32(std::string("\x01\x02", 2)));
+  const uint64_t malformed = server.counters().chunks_malformed;
+  server.OnChunk(stray);
+  CHECK(server.counters().chunks_malformed == malformed + 1);
+}
+
 TEST_CASE("shutdown keeps open missions in journals unless asked to finalize", "[mapstore_stream]") {
   SyntheticMissionOptions mo;
   mo.vertices = 4;

@@ -140,3 +140,49 @@ TEST_CASE("sender options are validated", "[mapstore_stream]") {
   CHECK_THROWS_AS(MissionStreamSender(MissionId(), "m", {}, [](const vilma::mission_chunk_t&) {}),
                   std::invalid_argument);
 }
+
+TEST_CASE("an idle sender sends a keepalive naming its last acknowledged chunk", "[mapstore_stream]") {
+  MissionStreamSenderOptions o;
+  o.keepalive_period_s = 1.0;
+  o.retransmit_timeout_s = 10.0;  // no retransmission in this test's 2.3 s
+  o.max_retransmit_timeout_s = 10.0;
+  std::vector<vilma::mission_chunk_t> out;
+  MissionStreamSender s(TestMission(), "m", o, [&](const vilma::mission_chunk_t& c) { out.push_back(c); }, 3);
+  const auto t0 = Clock::now();
+  auto at = [&](double s_) { return t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s_)); };
+  s.Poll(at(5.0));
+  CHECK(out.empty());  // nothing sent, nothing acknowledged: mapstored does not know the mission
+  REQUIRE(s.SendSerialized("a"));
+  REQUIRE(s.SendSerialized("b"));
+  s.OnAck(AckOf(s, 0));
+  out.clear();
+  s.Poll(at(0.5));
+  CHECK(out.empty());  // chunk 1 unacknowledged: retransmission's business, not a keepalive
+  s.OnAck(AckOf(s, 1));
+  s.Poll(at(0.9));
+  CHECK(out.empty());  // idle for less than the period
+  s.Poll(at(1.2));
+  REQUIRE(out.size() == 1);
+  CHECK(out[0].flags == vilma::mission_chunk_t::FLAG_KEEPALIVE);
+  CHECK(out[0].seq == 1);
+  CHECK(out[0].payload_size == 0);
+  CHECK(static_cast<uint32_t>(out[0].checksum) == Crc32(std::string()));
+  s.Poll(at(1.5));
+  CHECK(out.size() == 1);  // one per period
+  s.Poll(at(2.3));
+  CHECK(out.size() == 2);
+  CHECK(s.counters().keepalives == 2);
+  CHECK(s.next_seq() == 2);  // keepalives take no sequence number
+  CHECK(s.window_chunks() == 0);
+
+  o.keepalive_period_s = 0.0;  // off
+  std::vector<vilma::mission_chunk_t> none;
+  MissionStreamSender quiet(TestMission(), "m", o, [&](const vilma::mission_chunk_t& c) { none.push_back(c); }, 4);
+  REQUIRE(quiet.SendSerialized("a"));
+  quiet.OnAck(AckOf(quiet, 0));
+  none.clear();
+  quiet.Poll(at(100.0));
+  CHECK(none.empty());
+  o.keepalive_period_s = -1.0;
+  CHECK(o.Validate() == "keepalive_period_s: expected 0 (never) .. 3600");
+}

@@ -240,8 +240,11 @@ void MapStoreServer::OnChunk(const vilma::mission_chunk_t& chunk, Clock::time_po
                      std::to_string(MapStoreServerOptions::kMaxChunkPayloadBytes) + ", mission " +
                      chunk.mission_id + " seq " + std::to_string(chunk.seq));
   }
-  if (chunk.seq < 0 ||
-      (chunk.flags & (vilma::mission_chunk_t::FLAG_DATA | vilma::mission_chunk_t::FLAG_END)) == 0) {
+  // A keepalive is KEEPALIVE alone with an empty payload; anything else holds DATA or END.
+  const bool keepalive = chunk.flags == vilma::mission_chunk_t::FLAG_KEEPALIVE;
+  if (chunk.seq < 0 || (keepalive && !chunk.payload.empty()) ||
+      (!keepalive &&
+       (chunk.flags & (vilma::mission_chunk_t::FLAG_DATA | vilma::mission_chunk_t::FLAG_END)) == 0)) {
     return malformed("bad seq or flags, mission " + chunk.mission_id);
   }
   const auto done = done_.find(id);
@@ -256,7 +259,7 @@ void MapStoreServer::OnChunk(const vilma::mission_chunk_t& chunk, Clock::time_po
   }
   auto it = missions_.find(id);
   if (it == missions_.end()) {
-    if (chunk.seq != 0) {
+    if (chunk.seq != 0 || keepalive) {  // a keepalive never opens a mission
       // Normal when seq 0 was lost (the sender resends it); an error when the journal is gone.
       ++counters_.chunks_unknown_mission;
       if (counters_.chunks_unknown_mission <= 10 || counters_.chunks_unknown_mission % 1000 == 0) {
@@ -301,6 +304,10 @@ void MapStoreServer::OnChunk(const vilma::mission_chunk_t& chunk, Clock::time_po
   }
   m.last_activity = now;
   m.need_ack = true;
+  if (keepalive) {  // the sender lives: re-acknowledge, journal nothing
+    ++counters_.keepalives;
+    return;
+  }
   if (chunk.seq < m.next_seq || m.end_received) {
     ++counters_.chunks_duplicate;
     return;

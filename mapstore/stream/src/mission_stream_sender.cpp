@@ -3,6 +3,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <random>
 #include <stdexcept>
 
@@ -32,6 +33,9 @@ std::string MissionStreamSenderOptions::Validate() const {
   }
   if (max_retransmit_burst < 1) return "max_retransmit_burst: expected >= 1";
   if (max_in_flight_chunks < 1) return "max_in_flight_chunks: expected >= 1";
+  if (!(std::isfinite(keepalive_period_s) && keepalive_period_s >= 0.0 && keepalive_period_s <= 3600.0)) {
+    return "keepalive_period_s: expected 0 (never) .. 3600";
+  }
   return "";
 }
 
@@ -46,7 +50,8 @@ MissionStreamSender::MissionStreamSender(const MissionId& mission_id,
       publisher_(std::move(publisher)),
       session_id_(session_id != 0 ? session_id : RandomSession()),
       rto_s_(options.retransmit_timeout_s),
-      last_progress_(Clock::now()) {
+      last_progress_(Clock::now()),
+      last_transmit_(last_progress_) {
   const std::string error = options.Validate();
   if (!error.empty()) throw std::invalid_argument("MissionStreamSenderOptions: " + error);
   if (!mission_id.IsValid()) throw std::invalid_argument("MissionStreamSender: invalid mission id");
@@ -110,6 +115,26 @@ void MissionStreamSender::TransmitNew() {
 void MissionStreamSender::Transmit(vilma::mission_chunk_t& chunk) {
   chunk.utime = WallClockUtime();
   publisher_(chunk);
+  last_transmit_ = Clock::now();
+}
+
+// Idle: every chunk acknowledged (at least seq 0, so mapstored knows the mission) and nothing
+// published for keepalive_period_s. The keepalive names the last acknowledged seq, which
+// mapstored holds durably: it can only be re-acknowledged, never journaled.
+void MissionStreamSender::SendKeepaliveIfIdle(Clock::time_point now) {
+  if (options_.keepalive_period_s <= 0.0 || !window_.empty() || finished_ || acked_seq_ < 0) return;
+  if (now - last_transmit_ < std::chrono::duration<double>(options_.keepalive_period_s)) return;
+  vilma::mission_chunk_t chunk;
+  chunk.mission_id = mission_id_hex_;
+  chunk.mission_name = mission_name_;
+  chunk.session_id = session_id_;
+  chunk.seq = acked_seq_;
+  chunk.flags = vilma::mission_chunk_t::FLAG_KEEPALIVE;
+  chunk.checksum = static_cast<int32_t>(Crc32(std::string()));
+  chunk.payload_size = 0;
+  Transmit(chunk);
+  last_transmit_ = now;
+  ++counters_.keepalives;
 }
 
 void MissionStreamSender::OnAck(const vilma::mission_ack_t& ack) {
@@ -144,7 +169,10 @@ void MissionStreamSender::OnAck(const vilma::mission_ack_t& ack) {
 
 void MissionStreamSender::Poll(Clock::time_point now) {
   std::lock_guard<std::mutex> lock(mutex_);
-  if (window_.empty()) return;
+  if (window_.empty()) {
+    SendKeepaliveIfIdle(now);
+    return;
+  }
   if (now - last_progress_ < std::chrono::duration<double>(rto_s_)) return;
   const std::size_t n = std::min(options_.max_retransmit_burst, window_.size());
   for (std::size_t i = 0; i < n && window_[i].seq <= transmitted_seq_; ++i) {

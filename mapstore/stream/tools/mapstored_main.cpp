@@ -236,6 +236,7 @@ int main(int argc, char** argv) {
         {"chunks_received", c.chunks_received},
         {"chunks_journaled", c.chunks_journaled},
         {"chunks_duplicate", c.chunks_duplicate},
+        {"keepalives", c.keepalives},
         {"chunks_out_of_order", c.chunks_out_of_order},
         {"chunks_malformed", c.chunks_malformed},
         {"chunks_unknown_mission", c.chunks_unknown_mission},

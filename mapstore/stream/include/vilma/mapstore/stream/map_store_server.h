@@ -57,6 +57,7 @@ struct MapStoreServerCounters {
   uint64_t chunks_received = 0;
   uint64_t chunks_journaled = 0;
   uint64_t chunks_duplicate = 0;
+  uint64_t keepalives = 0;        // KEEPALIVE chunks of open missions (re-acknowledged)
   uint64_t chunks_out_of_order = 0;
   uint64_t chunks_malformed = 0;   // bad id, checksum, flags or session
   uint64_t chunks_unknown_mission = 0;  // seq > 0 of a mission without journal (its BEGIN

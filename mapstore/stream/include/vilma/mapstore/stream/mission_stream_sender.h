@@ -6,7 +6,8 @@
 // timeout, the oldest unacknowledged chunks are sent again (go-back-N, at most a burst per
 // round) and the timeout doubles up to a maximum (exponential backoff: a dead or restarting
 // mapstored costs little bandwidth); any progress resets it. End() queues the END marker;
-// the mission is finished when the END chunk is acknowledged.
+// the mission is finished when the END chunk is acknowledged. An idle sender (everything
+// acknowledged) publishes a KEEPALIVE chunk every keepalive_period_s.
 //
 // Thread safety: every method may be called from any thread (one mutex); the publisher is
 // called with the mutex held and must not call back into the sender.
@@ -41,6 +42,10 @@ struct MissionStreamSenderOptions {
   // Chunks transmitted but not acknowledged at most (flow control: the rest of the window
   // waits for acks, so that a burst does not overrun mapstored's UDP receive buffer).
   std::size_t max_in_flight_chunks = 64;
+  // With every chunk acknowledged and nothing sent for this long, a KEEPALIVE chunk tells
+  // mapstored the sender lives (its incomplete_timeout_s finalizes silent missions: a robot
+  // that stops mapping for a while must not lose the rest of its mission) [s]; 0: never.
+  double keepalive_period_s = 1.0;
   std::string Validate() const;                  // "" or "field: expectation"
 };
 
@@ -53,6 +58,7 @@ struct MissionStreamSenderCounters {
   uint64_t error_acks = 0;      // acks with status ERROR
   uint64_t ignored_acks = 0;    // acks of another mission or session, or stale
   uint64_t bytes_sent = 0;      // payload bytes, first transmissions [B]
+  uint64_t keepalives = 0;      // KEEPALIVE chunks sent while idle
 };
 
 class MissionStreamSender {
@@ -92,6 +98,7 @@ class MissionStreamSender {
   bool Enqueue(std::string payload, int8_t flags);
   void Transmit(vilma::mission_chunk_t& chunk);
   void TransmitNew();  // first transmissions allowed by max_in_flight_chunks
+  void SendKeepaliveIfIdle(Clock::time_point now);
 
   const MissionId mission_id_;
   const std::string mission_id_hex_;
@@ -112,6 +119,7 @@ class MissionStreamSender {
   std::string last_message_;
   double rto_s_ = 0.0;
   Clock::time_point last_progress_;  // last ack progress or retransmission round
+  Clock::time_point last_transmit_;  // last chunk published (any kind)
   MissionStreamSenderCounters counters_;
 };
 
