@@ -6,7 +6,6 @@
 #include <iomanip>
 #include <opencv2/core/utility.hpp>
 
-#include "vilma/console/locmap_command.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/core/atomic_file.h"
@@ -14,6 +13,7 @@
 #include "vilma/eval/localization/dataset_localization.h"
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
+#include "vilma/mapping/locmap/localization_map_file.h"
 
 namespace vilma::console {
 namespace {
@@ -167,9 +167,10 @@ int RunLocalizeCommand(const std::vector<std::string>& args, std::ostream& out, 
     ThrowIfInvalid(check.Validate(), "command line", "");
     eval::CheckDatasetCamera(o.dataset, dataset, rig, rig_source, o.camera);
 
-    std::string map_description;
-    const std::shared_ptr<const localizer::LocalizationMap> map =
-        LoadOrBuildLocalizationMap(o.map, options.map, &map_description);
+    const mapping::OpenedLocalizationMap opened =
+        mapping::OpenLocalizationMap(o.map, options.map, "MAP");
+    const std::string map_description = opened.BriefReport();
+    const std::shared_ptr<const localizer::LocalizationMap> map = opened.map;
     const bool stored_projection = map->projection.rows() > 0;
     const localizer::Localizer loc(map, options);
     const localizer::FeatureExtractor extractor(features);

@@ -19,11 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string NextValue(const std::vector<std::string>& args, std::size_t* i) {
-  if (*i + 1 >= args.size()) throw UsageError(args[*i] + ": expected a value");
-  return args[++*i];
-}
-
 // min / median / max of counts (median: the upper middle element; 0 0 0 when empty).
 struct CountSpread {
   std::size_t min = 0, median = 0, max = 0;
@@ -65,17 +60,17 @@ mapstore::VIMap LoadVIMapFolder(const std::string& dir) {
 
 int RunBuild(const std::vector<std::string>& args, std::ostream& out) {
   std::string vimap_dir, out_path, config_path;
-  for (std::size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--config") {
-      config_path = NextValue(args, &i);
-    } else if (!args[i].empty() && args[i][0] == '-') {
-      throw UsageError("unknown option '" + args[i] + "'");
+  for (ArgCursor arg(args); arg.Next();) {
+    if (arg.name() == "--config") {
+      config_path = arg.Value();
+    } else if (arg.is_option()) {
+      throw UsageError("unknown option '" + arg.word() + "'");
     } else if (vimap_dir.empty()) {
-      vimap_dir = args[i];
+      vimap_dir = arg.name();
     } else if (out_path.empty()) {
-      out_path = args[i];
+      out_path = arg.name();
     } else {
-      throw UsageError("unexpected argument '" + args[i] + "'");
+      throw UsageError("unexpected argument '" + arg.name() + "'");
     }
   }
   if (vimap_dir.empty()) throw UsageError("build: expected VIMAP_DIR and OUT.vlocmap");
@@ -176,35 +171,6 @@ void PrintLocmapHelp(std::ostream& out) {
          "  -h, --help      this text\n"
          "\n"
          "exit codes: 0 ok, 1 input error (the message names the file and field), 2 usage error\n";
-}
-
-std::shared_ptr<localizer::LocalizationMap> LoadOrBuildLocalizationMap(
-    const std::string& path, const localizer::LocalizationMapOptions& options,
-    std::string* description) {
-  std::error_code ec;
-  auto map = std::make_shared<localizer::LocalizationMap>();
-  const auto t0 = std::chrono::steady_clock::now();
-  std::ostringstream d;
-  d << std::fixed << std::setprecision(0);
-  if (fs::is_directory(path, ec)) {
-    const mapstore::VIMap vimap = mapstore::LoadMap(path);
-    mapping::LocalizationMapReport report;
-    *map = mapping::BuildLocalizationMap(vimap, options, &report);
-    d << "VI-map folder, " << vimap.mission_ids().size()
-      << (vimap.mission_ids().size() == 1 ? " mission" : " missions") << " (" << report.missions_used
-      << " in the common frame G), summary built in "
-      << MsSince(t0) << " ms";
-  } else if (fs::is_regular_file(path, ec)) {
-    *map = localizer::LoadLocalizationMap(path);
-    d << "localization map file, loaded in " << MsSince(t0) << " ms";
-  } else {
-    throw InputError(FormatInputError(path, "MAP", "a .vlocmap file or a VI-map folder"));
-  }
-  if (map->num_landmarks() == 0 || map->num_descriptors() < 2) {
-    throw InputError(FormatInputError(path, "landmarks", "a map with good landmarks"));
-  }
-  if (description != nullptr) *description = d.str();
-  return map;
 }
 
 void WriteLocalizationMapInfo(std::ostream& out, const localizer::LocalizationMap& map,

@@ -2,10 +2,13 @@
 
 #include <chrono>
 #include <filesystem>
+#include <iomanip>
 #include <memory>
+#include <sstream>
 
 #include "vilma/core/error.h"
 #include "vilma/core/timing.h"
+#include "vilma/mapstore/map_io.h"
 
 namespace vilma::mapping {
 
@@ -57,6 +60,46 @@ LocalizationMapFileReport BuildAndSaveLocalizationMap(const mapstore::VIMap& vim
   report.projection_rows = static_cast<int>(map->projection.rows());
   report.projection_cols = static_cast<int>(map->projection.cols());
   return report;
+}
+
+std::string OpenedLocalizationMap::BriefReport() const {
+  std::ostringstream d;
+  d << std::fixed << std::setprecision(0);
+  if (from_vimap) {
+    d << "VI-map folder, " << vimap_missions << (vimap_missions == 1 ? " mission" : " missions")
+      << " (" << missions.missions_used << " in the common frame G), summary built in " << load_ms
+      << " ms";
+  } else {
+    d << "localization map file, loaded in " << load_ms << " ms";
+  }
+  return d.str();
+}
+
+std::string OpenedLocalizationMap::FullReport() const { return BriefReport() + "\n"; }
+
+OpenedLocalizationMap OpenLocalizationMap(const std::string& path,
+                                          const localizer::LocalizationMapOptions& options,
+                                          const std::string& what) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  OpenedLocalizationMap opened;
+  opened.map = std::make_shared<LocalizationMap>();
+  const auto t0 = std::chrono::steady_clock::now();
+  if (fs::is_directory(path, ec)) {
+    const mapstore::VIMap vimap = mapstore::LoadMap(path);
+    *opened.map = BuildLocalizationMap(vimap, options, &opened.missions);
+    opened.from_vimap = true;
+    opened.vimap_missions = vimap.mission_ids().size();
+  } else if (fs::is_regular_file(path, ec)) {
+    *opened.map = localizer::LoadLocalizationMap(path);
+  } else {
+    throw InputError(FormatInputError(path, what, "a .vlocmap file or a VI-map folder"));
+  }
+  opened.load_ms = MsSince(t0);
+  if (opened.map->num_landmarks() == 0 || opened.map->num_descriptors() < 2) {
+    throw InputError(FormatInputError(path, "landmarks", "a map with good landmarks"));
+  }
+  return opened;
 }
 
 }  // namespace vilma::mapping

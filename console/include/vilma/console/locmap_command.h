@@ -25,14 +25,6 @@ void PrintLocmapHelp(std::ostream& out);
 // The whole command; returns kExitOk, kExitInputError or kExitUsage.
 int RunLocmapCommand(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
-// A localization map from `path`: a .vlocmap file (LoadLocalizationMap) or a VI-map folder
-// (LoadMap + BuildLocalizationMap with `options`), as vilma-estimatord --localization-map
-// accepts. `description` (optional) gets "file" / "VI-map folder (N missions, built in X ms)".
-// Throws InputError naming the path when it is neither, or when the map has no landmark.
-std::shared_ptr<localizer::LocalizationMap> LoadOrBuildLocalizationMap(
-    const std::string& path, const localizer::LocalizationMapOptions& options,
-    std::string* description = nullptr);
-
 // The summary `vilma locmap info` prints (counts, projection, bounding box of p_G, descriptors
 // and observers per landmark as min / median / max). `file_bytes` < 0: not printed.
 void WriteLocalizationMapInfo(std::ostream& out, const localizer::LocalizationMap& map,

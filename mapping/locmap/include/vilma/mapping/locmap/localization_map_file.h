@@ -5,6 +5,7 @@
 // `generate_summary_map_and_save_to_disk` (docs/localizer.md).
 #pragma once
 
+#include <memory>
 #include <string>
 
 #include "vilma/localizer/localizer.h"
@@ -29,5 +30,29 @@ LocalizationMapFileReport BuildAndSaveLocalizationMap(const mapstore::VIMap& vim
                                                       const localizer::LocalizerOptions& options,
                                                       const std::string& source,
                                                       const std::string& path);
+
+// A localization map opened from `path`: a `.vlocmap` file (loaded) or a VI-map folder (its
+// missions in the common frame G summarized now with `options`, BuildLocalizationMap). The one
+// way programs open a map for localization (vilma-estimatord's LOC stage, `vilma localize`), so
+// that both accept the same inputs and make the same checks.
+struct OpenedLocalizationMap {
+  std::shared_ptr<localizer::LocalizationMap> map;
+  bool from_vimap = false;         // a VI-map folder, summarized at load
+  std::size_t vimap_missions = 0;  // missions in the folder (from_vimap)
+  LocalizationMapReport missions;  // which of them were in the common frame G (from_vimap)
+  double load_ms = 0.0;            // load (and summary) wall time [ms]
+  // "VI-map folder, 2 missions (1 in the common frame G), summary built in 120 ms" or
+  // "localization map file, loaded in 8 ms".
+  std::string BriefReport() const;
+  std::string FullReport() const;  // the brief report as a line
+};
+
+// Throws InputError naming `path` and `what` (the option or argument that named it) when it is
+// neither a file nor a folder, and "path: landmarks: a map with good landmarks" when
+// the map has no landmark or fewer than 2 descriptors (nothing to match against); loader errors
+// name the file.
+OpenedLocalizationMap OpenLocalizationMap(const std::string& path,
+                                          const localizer::LocalizationMapOptions& options,
+                                          const std::string& what);
 
 }  // namespace vilma::mapping
