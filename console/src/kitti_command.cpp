@@ -6,15 +6,6 @@
 #include "vilma/eval/localization/kitti_localization.h"
 
 namespace vilma::console {
-namespace {
-
-std::string NextValue(const std::vector<std::string>& args, std::size_t* i) {
-  if (*i + 1 >= args.size()) throw UsageError(args[*i] + ": missing value");
-  return args[++*i];
-}
-
-}  // namespace
-
 void PrintKittiHelp(std::ostream& out) {
   out << "usage: vilma localize-kitti KITTI_DIR [--config LOCALIZER.yaml]\n"
          "                            [--features FEATURES.yaml | --indoor-features]\n"
@@ -42,22 +33,24 @@ int RunKittiCommand(const std::vector<std::string>& args, std::ostream& out, std
   try {
     std::string directory, config_path, features_path;
     bool indoor = false;
-    for (std::size_t i = 0; i < args.size(); ++i) {
-      if (args[i] == "--help" || args[i] == "-h") {
+    for (ArgCursor arg(args); arg.Next();) {
+      const std::string& a = arg.name();
+      if (a == "--help" || a == "-h") {
+        arg.Flag();  // "--help=x" is a usage error
         PrintKittiHelp(out);
         return kExitOk;
-      } else if (args[i] == "--config") {
-        config_path = NextValue(args, &i);
-      } else if (args[i] == "--features") {
-        features_path = NextValue(args, &i);
-      } else if (args[i] == "--indoor-features") {
-        indoor = true;
-      } else if (!args[i].empty() && args[i][0] == '-') {
-        throw UsageError("unknown option " + args[i]);
+      } else if (a == "--config") {
+        config_path = arg.Value();
+      } else if (a == "--features") {
+        features_path = arg.Value();
+      } else if (a == "--indoor-features") {
+        indoor = arg.Flag();
+      } else if (arg.is_option()) {
+        throw UsageError("unknown option " + arg.word());
       } else if (directory.empty()) {
-        directory = args[i];
+        directory = a;
       } else {
-        throw UsageError("unexpected argument " + args[i]);
+        throw UsageError("unexpected argument " + a);
       }
     }
     if (directory.empty()) throw UsageError("missing KITTI_DIR");

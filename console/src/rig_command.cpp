@@ -32,11 +32,6 @@ void PrintRigSummary(const SensorRig& rig, std::ostream& out) {
   }
 }
 
-std::string NextValue(const std::vector<std::string>& args, std::size_t* i) {
-  if (*i + 1 >= args.size()) throw UsageError(args[*i] + " needs a value");
-  return args[++*i];
-}
-
 }  // namespace
 
 void PrintRigHelp(std::ostream& out) {
@@ -61,18 +56,21 @@ int RunRigCommand(const std::vector<std::string>& args, std::ostream& out, std::
       return kExitOk;
     }
     std::string input, out_path;
-    for (std::size_t i = 1; i < args.size(); ++i) {
-      if (args[i] == "--help" || args[i] == "-h") {
+    const std::vector<std::string> rest(args.begin() + 1, args.end());
+    for (ArgCursor arg(rest); arg.Next();) {
+      const std::string& a = arg.name();
+      if (a == "--help" || a == "-h") {
+        arg.Flag();  // "--help=x" is a usage error
         PrintRigHelp(out);
         return kExitOk;
-      } else if (args[i] == "--out" && action == "import") {
-        out_path = NextValue(args, &i);
-      } else if (!args[i].empty() && args[i][0] == '-') {
-        throw UsageError("unknown option " + args[i]);
+      } else if (a == "--out" && action == "import") {
+        out_path = arg.Value();
+      } else if (arg.is_option()) {
+        throw UsageError("unknown option " + arg.word());
       } else if (input.empty()) {
-        input = args[i];
+        input = a;
       } else {
-        throw UsageError("unexpected argument " + args[i]);
+        throw UsageError("unexpected argument " + a);
       }
     }
     if (input.empty()) throw UsageError(action == "import" ? "missing DATASET" : "missing RIG.yaml");
