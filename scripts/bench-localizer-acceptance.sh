@@ -14,7 +14,9 @@
 # under the ground truth); accepted (status ok); accepted wrong (> 0.3 m or > 2 deg); recall =
 # accepted correct / possible; median error of the accepted; rejection reasons.
 #
-# Usage: scripts/bench-localizer-acceptance.sh [--config LOCALIZER.yaml]
+# Usage: scripts/bench-localizer-acceptance.sh [--config LOCALIZER.yaml] [--queries]
+#   --queries              also print every query's line (status, errors, every gate's value)
+#                          before its data set's row
 #   VILMA_BUILD_DIR        build folder (bin/vilma-loc-acceptance, bin/vilma, bin/vilma-locmap-gt)
 #   VILMA_SHARED_DATA_DIR  real slices (default ../shared/data beside the repository)
 #   VILMA_DATASETS         simulated sets (default ~/.cache/vilma/datasets; missing ones are
@@ -36,7 +38,8 @@ config=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --config) [ $# -ge 2 ] || { echo "bench-localizer-acceptance: --config: expected a file" >&2; exit 2; }
-              config=(--config "$2"); shift 2 ;;
+              config+=(--config "$2"); shift 2 ;;
+    --queries) config+=(--queries); shift ;;
     -h | --help) sed -n '2,/^set -euo/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-localizer-acceptance: unknown argument '$1'" >&2; exit 2 ;;
   esac

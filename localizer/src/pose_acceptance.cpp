@@ -1,5 +1,7 @@
 #include "vilma/localizer/pose_acceptance.h"
 
+#include "vilma/localizer/pose_consistency.h"
+
 #include <Eigen/Eigenvalues>
 #include <Eigen/LU>
 #include <algorithm>
@@ -185,41 +187,56 @@ void RefineCameraPoseWeighted(const Camera& camera, const std::vector<Eigen::Vec
 bool PoseCovariance(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
                     const std::vector<Eigen::Vector3d>& p_G, const std::vector<int>& indices,
                     const Transformation& T_G_C, double sigma_px, Matrix6d* covariance_C,
-                    double* residual_sigma_px, const std::vector<Eigen::Matrix3d>& p_G_covariance) {
+                    double* residual_sigma_px, const std::vector<Eigen::Matrix3d>& p_G_covariance,
+                    CovarianceOf estimator, double* chi2_per_dof) {
   covariance_C->setZero();
-  const bool weighted = !p_G_covariance.empty();
-  Matrix6d H = Matrix6d::Zero();  // sum J^T J, or sum J^T Sigma_r^-1 J when weighted
-  double sum2 = 0.0;              // sum |e|^2
-  double chi2 = 0.0;              // sum e^T Sigma_r^-1 e (weighted)
+  const bool with_landmarks = !p_G_covariance.empty();
+  const double sigma2 = sigma_px * sigma_px;
+  Matrix6d H = Matrix6d::Zero();    // sum J^T J
+  Matrix6d Hw = Matrix6d::Zero();   // sum J^T Sigma_r^-1 J (information of the weighted estimate)
+  Matrix6d M = Matrix6d::Zero();    // sum J^T Sigma_r J (noise of the unweighted normal equations)
+  double sum2 = 0.0;                // sum |e|^2
+  double chi2 = 0.0;                // sum e^T Sigma_r^-1 e
   int n = 0;
   for (int i : indices) {
     Eigen::Vector2d e;
     Eigen::Matrix<double, 2, 6> J;
     Eigen::Matrix<double, 2, 3> J_l;
     if (!ReprojectionResidual(camera, T_G_C, p_G[i], keypoints[i], &e, &J, &J_l)) continue;
-    if (weighted) {
-      const Eigen::Matrix2d W =
-          ResidualCovariance(J_l, p_G_covariance[static_cast<std::size_t>(i)], sigma_px).inverse();
-      H += J.transpose() * W * J;
-      chi2 += e.dot(W * e);
-    } else {
-      H += J.transpose() * J;
-    }
+    const Eigen::Matrix2d Sigma_r =
+        with_landmarks
+            ? ResidualCovariance(J_l, p_G_covariance[static_cast<std::size_t>(i)], sigma_px)
+            : Eigen::Matrix2d(sigma2 * Eigen::Matrix2d::Identity());
+    const Eigen::Matrix2d W = Sigma_r.inverse();
+    H += J.transpose() * J;
+    Hw += J.transpose() * W * J;
+    M += J.transpose() * Sigma_r * J;
+    chi2 += e.dot(W * e);
     sum2 += e.squaredNorm();
     ++n;
   }
   if (n < 4) return false;
   // 2n residuals, 6 parameters: the unbiased residual variance per coordinate.
   const double dof = 2.0 * n - 6.0;
-  const double variance = sum2 / dof;
-  if (residual_sigma_px != nullptr) *residual_sigma_px = std::sqrt(variance);
-  const Eigen::FullPivLU<Matrix6d> lu(H);
-  if (!lu.isInvertible()) return false;
-  // Unweighted: s^2 (J^T J)^-1. Weighted: the information already carries the noise; the
-  // a-posteriori variance factor chi^2 / dof (1 for a correct model) inflates it when the
-  // residuals are larger than the model says, never shrinks it.
-  *covariance_C = weighted ? std::max(1.0, chi2 / dof) * lu.inverse()
-                           : std::max(variance, sigma_px * sigma_px) * lu.inverse();
+  if (residual_sigma_px != nullptr) *residual_sigma_px = std::sqrt(sum2 / dof);
+  if (chi2_per_dof != nullptr) *chi2_per_dof = chi2 / dof;
+  // The a-posteriori variance factor chi^2 / dof (1 for a correct noise model) inflates the
+  // covariance when the residuals are larger than the model says, never shrinks it. Without
+  // landmark covariances f sigma^2 = max(sum|e|^2 / dof, sigma^2): the floored residual variance.
+  const double f = std::max(1.0, chi2 / dof);
+  if (estimator == CovarianceOf::kWeighted) {
+    const Eigen::FullPivLU<Matrix6d> lu(Hw);
+    if (!lu.isInvertible()) return false;
+    *covariance_C = f * lu.inverse();
+  } else {
+    // x = x_true - H^-1 sum J^T e (one Gauss-Newton step of the unweighted problem), so
+    // Cov(x) = H^-1 (sum J^T Sigma_r J) H^-1.
+    const Eigen::FullPivLU<Matrix6d> lu(H);
+    if (!lu.isInvertible()) return false;
+    const Matrix6d H_inv = lu.inverse();
+    *covariance_C = f * H_inv * M * H_inv;
+    *covariance_C = 0.5 * (*covariance_C + covariance_C->transpose()).eval();
+  }
   return covariance_C->allFinite();
 }
 
@@ -282,7 +299,27 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
   out.rms_reprojection_px = out.inliers.empty() ? 0.0 : std::sqrt(sum2 / out.inliers.size());
   const bool have_covariance =
       PoseCovariance(camera, keypoints, p_G, out.inliers, out.T_G_C, ransac.keypoint_sigma_px,
-                     &out.covariance_C, &q.residual_sigma_px, landmark_covariance);
+                     &out.covariance_C, &q.residual_sigma_px, landmark_covariance,
+                     CovarianceOf::kUnweighted, &q.chi2_per_dof);
+  {
+    const int iters = std::max(1, ransac.refine_iterations);
+    const SplitConsistency si =
+        SplitHalfConsistency(camera, keypoints, p_G, out.inliers, out.T_G_C, iters,
+                             ransac.keypoint_sigma_px, landmark_covariance, SplitAxis::kImageAxis);
+    if (si.valid) {
+      q.split_image_position_m = si.position_m;
+      q.split_image_rotation_deg = si.rotation_deg;
+      q.split_image_mahalanobis2 = si.mahalanobis2;
+    }
+    const SplitConsistency sd =
+        SplitHalfConsistency(camera, keypoints, p_G, out.inliers, out.T_G_C, iters,
+                             ransac.keypoint_sigma_px, landmark_covariance, SplitAxis::kDepth);
+    if (sd.valid) {
+      q.split_depth_position_m = sd.position_m;
+      q.split_depth_rotation_deg = sd.rotation_deg;
+      q.split_depth_mahalanobis2 = sd.mahalanobis2;
+    }
+  }
   if (q.inliers < ransac.min_inliers) {
     out.verdict = PoseVerdict::kTooFewInliers;
     return out;

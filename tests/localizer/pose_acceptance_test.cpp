@@ -398,8 +398,11 @@ struct MonteCarloSigmas {
 };
 
 // Every trial draws landmark errors from their covariances and keypoint noise (1 px), refines
-// the pose from the truth with RefineCameraPoseWeighted and records xi = Log(T_true^-1 T).
-MonteCarloSigmas RunMonteCarlo(const Camera& cam, const UncertainScene& scene, int trials) {
+// the pose from the truth with RefineCameraPoseWeighted (estimator kWeighted) or
+// RefineCameraPose (kUnweighted) and records xi = Log(T_true^-1 T); the prediction is
+// PoseCovariance for that estimator.
+MonteCarloSigmas RunMonteCarlo(const Camera& cam, const UncertainScene& scene, int trials,
+                               CovarianceOf estimator = CovarianceOf::kWeighted) {
   const std::size_t n = scene.p_G.size();
   std::vector<int> all(n);
   std::vector<Eigen::Vector2d> uv_true(n);
@@ -411,7 +414,7 @@ MonteCarloSigmas RunMonteCarlo(const Camera& cam, const UncertainScene& scene, i
   MonteCarloSigmas out;
   Matrix6d exact_landmarks;
   REQUIRE(PoseCovariance(cam, uv_true, scene.p_G, all, kT_G_C, 1.0, &out.predicted, nullptr,
-                         scene.covariance_G));
+                         scene.covariance_G, estimator));
   REQUIRE(PoseCovariance(cam, uv_true, scene.p_G, all, kT_G_C, 1.0, &exact_landmarks, nullptr));
   std::vector<Eigen::Matrix3d> chol(n);
   for (std::size_t i = 0; i < n; ++i) chol[i] = scene.covariance_G[i].llt().matrixL();
@@ -426,7 +429,11 @@ MonteCarloSigmas RunMonteCarlo(const Camera& cam, const UncertainScene& scene, i
       uv[i] = uv_true[i] + Eigen::Vector2d(g(rng), g(rng));
     }
     Transformation T = kT_G_C;
-    RefineCameraPoseWeighted(cam, uv, p_G, scene.covariance_G, all, 10, 1.0, &T);
+    if (estimator == CovarianceOf::kWeighted) {
+      RefineCameraPoseWeighted(cam, uv, p_G, scene.covariance_G, all, 10, 1.0, &T);
+    } else {
+      RefineCameraPose(cam, uv, p_G, all, 10, 1.0, &T);
+    }
     const Vector6d xi = (kT_G_C.inverse() * T).Log();
     out.empirical += xi * xi.transpose() / trials;
   }
@@ -468,6 +475,49 @@ TEST_CASE("pose acceptance: the covariance with landmark uncertainty matches a M
   CHECK(w.predicted_position > 0.6 * w.mc_position);
   CHECK(w.predicted_position < 1.05 * w.mc_position);
   CHECK(w.exact_position < 0.2 * w.mc_position);
+}
+
+TEST_CASE("pose acceptance: the covariance of the unweighted refinement is the sandwich form",
+          "[localization]") {
+  // AcceptPose refines without the landmark weights (docs/localizer.md, "Refinement
+  // unweighted"); the covariance it publishes and gates must be that estimate's:
+  // H^-1 (sum J^T Sigma_r J) H^-1, H = sum J^T J. Checked against a Monte-Carlo run of
+  // RefineCameraPose; the weighted estimate's (sum J^T Sigma_r^-1 J)^-1 is too small for it.
+  const Camera cam = KittiCamera();
+  const UncertainScene scene = MakeUncertainScene(cam, 15, 45, 0.5, 11);
+  const MonteCarloSigmas u = RunMonteCarlo(cam, scene, 2000, CovarianceOf::kUnweighted);
+  const MonteCarloSigmas w = RunMonteCarlo(cam, scene, 1, CovarianceOf::kWeighted);
+  INFO("unweighted refinement: Monte-Carlo " << u.mc_position << " m / " << u.mc_rotation
+                                             << " rad, sandwich " << u.predicted_position
+                                             << " m / " << u.predicted_rotation
+                                             << ", weighted formula " << w.predicted_position
+                                             << " m / " << w.predicted_rotation);
+  CHECK(u.predicted_position == Approx(u.mc_position).epsilon(0.1));
+  CHECK(u.predicted_rotation == Approx(u.mc_rotation).epsilon(0.1));
+  for (int k = 0; k < 6; ++k) {
+    INFO("xi[" << k << "]");
+    CHECK(std::sqrt(u.predicted(k, k)) == Approx(std::sqrt(u.empirical(k, k))).epsilon(0.1));
+  }
+  // Gauss-Markov: the sandwich minus the weighted covariance is positive semi-definite, and
+  // here clearly larger (far and near points differ in noise by 10x).
+  const Matrix6d difference = u.predicted - w.predicted;
+  CHECK(Eigen::SelfAdjointEigenSolver<Matrix6d>(difference).eigenvalues().minCoeff() >=
+        -1e-9 * u.predicted.norm());
+  CHECK(w.predicted_position < 0.8 * u.mc_position);
+  // Exact landmarks: both are s^2 (J^T J)^-1.
+  std::vector<int> all(scene.p_G.size());
+  std::vector<Eigen::Vector2d> uv(scene.p_G.size());
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    all[i] = static_cast<int>(i);
+    REQUIRE(cam.Project(kT_G_C.inverse() * scene.p_G[i], &uv[i]) == Camera::ProjectionResult::kValid);
+    uv[i] += Eigen::Vector2d(0.7, -0.4) * ((i % 3) - 1.0);
+  }
+  Matrix6d c_w, c_u;
+  REQUIRE(PoseCovariance(cam, uv, scene.p_G, all, kT_G_C, 0.3, &c_w, nullptr, {},
+                         CovarianceOf::kWeighted));
+  REQUIRE(PoseCovariance(cam, uv, scene.p_G, all, kT_G_C, 0.3, &c_u, nullptr, {},
+                         CovarianceOf::kUnweighted));
+  CHECK((c_w - c_u).norm() <= 1e-9 * c_w.norm());
 }
 
 TEST_CASE("pose acceptance: far stereo landmarks make the pose uncertain only with their covariances",

@@ -205,7 +205,7 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
   std::ostringstream s;
   s << "frame  status                    kpts  match  inl  oracle  possible  pos[m]  rot[deg]"
        "  sigma_p[m]  sigma_R[deg]  verdict   ratio  med/p90[px]  cells  hull  sp[m] sR[deg] "
-       "rival  rival_d[m/deg]\n";
+       "rival  rival_d[m/deg]  chi2/dof  split_img[m/deg/d2]  split_depth[m/deg/d2]\n";
   for (const AcceptanceQuery& q : queries) {
     s << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
       << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
@@ -225,7 +225,12 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
       << std::setw(7) << g.cell_fraction << std::setw(6) << g.hull_fraction << std::setprecision(3)
       << std::setw(7) << g.position_sigma_m << std::setw(7) << g.rotation_sigma_deg
       << std::setprecision(2) << std::setw(6) << g.rival_ratio << std::setw(8)
-      << g.rival_position_m << "/" << g.rival_rotation_deg;
+      << g.rival_position_m << "/" << g.rival_rotation_deg << std::setw(8) << g.chi2_per_dof
+      << std::setprecision(3) << std::setw(8) << g.split_image_position_m << "/"
+      << std::setprecision(2) << g.split_image_rotation_deg << "/" << std::setprecision(1)
+      << g.split_image_mahalanobis2 << std::setprecision(3) << std::setw(8)
+      << g.split_depth_position_m << "/" << std::setprecision(2) << g.split_depth_rotation_deg
+      << "/" << std::setprecision(1) << g.split_depth_mahalanobis2;
     s << "\n";
   }
   out << s.str();

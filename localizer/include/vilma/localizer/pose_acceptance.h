@@ -97,6 +97,15 @@ struct PoseQuality {
   double residual_sigma_px = -1.0;  // sqrt(sum e^2 / (2n - 6)) over the inliers
   double position_sigma_m = -1.0;
   double rotation_sigma_deg = -1.0;
+  double chi2_per_dof = -1.0;       // sum e^T Sigma_r^-1 e / (2n - 6) over the inliers
+  // Split-half consistency (pose_consistency.h): the half-poses' distance and Mahalanobis d^2,
+  // inliers split across the image (principal axis) and by depth.
+  double split_image_position_m = -1.0;
+  double split_image_rotation_deg = -1.0;
+  double split_image_mahalanobis2 = -1.0;
+  double split_depth_position_m = -1.0;
+  double split_depth_rotation_deg = -1.0;
+  double split_depth_mahalanobis2 = -1.0;
   int rival_inliers = -1;           // of a rival that differs from the winner (else 0)
   double rival_ratio = -1.0;
   double rival_position_m = -1.0;   // how far the best rival model is from the winner
@@ -150,11 +159,21 @@ void RefineCameraPoseWeighted(const Camera& camera, const std::vector<Eigen::Vec
 // f = max(1, sum e^T Sigma_r^-1 e / (2n - 6)) — the same as the first when every Sigma_l is
 // zero. residual_sigma_px is sqrt(sum |e|^2 / (2n - 6)) either way. False (and zero) if
 // singular or n < 4.
+//
+// `estimator` says which estimate the covariance is of. kWeighted: the minimizer of
+// sum e^T Sigma_r^-1 e (RefineCameraPoseWeighted), as above. kUnweighted: the minimizer of
+// sum |e|^2 (RefineCameraPose, what AcceptPose publishes) under the same residual noise: the
+// sandwich f H^-1 (sum J^T Sigma_r J) H^-1 with H = sum J^T J — larger than the weighted one
+// (Gauss-Markov) when the Sigma_r differ, equal to s^2 (J^T J)^-1 without landmark covariances.
+// chi2_per_dof (optional): sum e^T Sigma_r^-1 e / (2n - 6) (with exact landmarks |e|^2 / sigma_px^2).
+enum class CovarianceOf : uint8_t { kWeighted, kUnweighted };
 bool PoseCovariance(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
                     const std::vector<Eigen::Vector3d>& p_G, const std::vector<int>& indices,
                     const Transformation& T_G_C, double sigma_px, Matrix6d* covariance_C,
                     double* residual_sigma_px,
-                    const std::vector<Eigen::Matrix3d>& p_G_covariance = {});
+                    const std::vector<Eigen::Matrix3d>& p_G_covariance = {},
+                    CovarianceOf estimator = CovarianceOf::kWeighted,
+                    double* chi2_per_dof = nullptr);
 
 // Shares of the grid cells holding a point and of the image covered by the points' convex hull.
 void ImageSpread(const Camera& camera, const std::vector<Eigen::Vector2d>& points, int grid_cols,
