@@ -1,5 +1,9 @@
 #include "vilma/console/vio_command.h"
 #include "test_skip.h"
+#include "vilma/core/asl_dataset.h"
+#include "vilma/core/error.h"
+#include "vilma/eval/evaluate.h"
+#include "vilma/eval/trajectory.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -95,6 +99,70 @@ TEST_CASE("vilma vio runs on the EuRoC static slice and is deterministic") {
   CHECK(sa.str() == sb.str());  // bit-identical output
   std::filesystem::remove(a);
   std::filesystem::remove(b);
+}
+
+TEST_CASE("vilma vio --profile: parsed, not with --config, an unknown profile is bad input") {
+  CHECK(ParseVioArgs({"d", "--out", "t.txt"}).profile == "auto");
+  CHECK(ParseVioArgs({"d", "--out", "t.txt", "--profile", "euroc"}).profile == "euroc");
+  CHECK_THROWS_AS(ParseVioArgs({"d", "--out", "t.txt", "--profile", "euroc", "--config", "c.yaml"}),
+                  UsageError);
+  std::ostringstream out, err;
+  CHECK(RunVioCommand({"d", "--out", "t.txt", "--profile", "euroc", "--config", "c.yaml"}, out,
+                      err) == kExitUsage);
+  const std::string data = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
+  if (!std::filesystem::exists(data + "/mav0")) VILMA_SKIP(data << " is absent");
+  const std::string traj = (std::filesystem::temp_directory_path() /
+                            ("vilma_vio_profile_" + std::to_string(::getpid()) + ".txt"))
+                               .string();
+  CHECK(RunVioCommand({data, "--out", traj, "--profile", "kitti"}, out, err) == kExitInputError);
+  CHECK_THAT(err.str(), Catch::Contains("kitti") && Catch::Contains("default, euroc"));
+  std::filesystem::remove(traj);
+}
+
+// Issue 17: a user runs `vilma vio DATASET` on real EuRoC data without any option and gets the
+// targets (roll/pitch <= 1 deg over the whole run, ATE posyaw <= 0.03 m): the dataset's EuRoC
+// sensor.yaml rig selects the "euroc" profile by itself.
+TEST_CASE("vilma vio picks the euroc profile for a EuRoC dataset and meets the moving-start targets") {
+  const std::string data = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_moving";
+  if (!std::filesystem::exists(data + "/mav0")) VILMA_SKIP(data << " is absent");
+  const std::string traj = (std::filesystem::temp_directory_path() /
+                            ("vilma_vio_auto_" + std::to_string(::getpid()) + ".txt"))
+                               .string();
+  for (const bool given : {false, true}) {
+    std::vector<std::string> args{data, "--out", traj};
+    if (given) {
+      args.push_back("--initial-state");
+      args.push_back(data + "/mav0/state_groundtruth_estimate0/data.csv");
+    }
+    std::ostringstream out, err;
+    REQUIRE(RunVioCommand(args, out, err) == kExitOk);
+    INFO(out.str() << err.str());
+    CHECK_THAT(out.str(), Catch::Contains("options          built-in profile euroc (auto"));
+    CHECK_THAT(out.str(), Catch::Contains(given ? "1 given" : "(1 by alignment"));
+    const AslDataset dataset = AslDataset::Open(data);
+    Trajectory truth;
+    for (const GroundTruthState& g : dataset.ground_truth()) {
+      truth.Add(g.t_ns, Transformation(g.q_W_I, g.p_W_I));
+    }
+    EvalOptions options;
+    options.alignment = AlignmentType::kPosYaw;
+    options.segment_lengths_m = {1.0};
+    const EvalResult eval = EvaluateTrajectory(truth, ReadTrajectoryFile(traj), options);
+    INFO((given ? "given" : "moving") << " start: ATE rmse " << eval.ate.translation_m.rmse
+                                      << " m, roll/pitch max " << eval.ate.roll_pitch_deg.max);
+    CHECK(eval.t_ns.size() > 60);  // of 90 frames
+    CHECK(eval.ate.roll_pitch_deg.max <= 1.0);
+    CHECK(eval.ate.translation_m.rmse <= 0.03);
+  }
+  std::filesystem::remove(traj);
+  // A vilma rig (the simulator writes rig.yaml; here --rig) keeps the defaults.
+  std::ostringstream out, err;
+  REQUIRE(RunVioCommand({data, "--out", traj, "--rig",
+                         std::string(VILMA_SOURCE_DIR) + "/config/euroc-rig.yaml", "--print-config"},
+                        out, err) == kExitOk);
+  CHECK_THAT(out.str(), Catch::Contains("# filter options: built-in profile default (auto: vilma rig)"));
+  CHECK_THAT(out.str(), Catch::Contains("  bearing: 0.001"));
+  std::filesystem::remove(traj);
 }
 
 }  // namespace

@@ -23,6 +23,20 @@ TEST_CASE("config/estimator.yaml loads and equals the built-in defaults") {
   CHECK(FilterOptions().Validate().empty());
 }
 
+TEST_CASE("the built-in profiles equal their config files, an unknown profile is an error") {
+  CHECK(FilterOptionsToYaml(FilterOptionsProfile("default")) ==
+        FilterOptionsToYaml(LoadFilterOptions(std::string(VILMA_SOURCE_DIR) + "/config/estimator.yaml")));
+  const FilterOptions euroc = FilterOptionsProfile("euroc");
+  CHECK(FilterOptionsToYaml(euroc) ==
+        FilterOptionsToYaml(
+            LoadFilterOptions(std::string(VILMA_SOURCE_DIR) + "/config/estimator_euroc.yaml")));
+  CHECK(euroc.Validate().empty());
+  CHECK(euroc.noise.bearing == 0.005);
+  CHECK(euroc.features.max_features == 40);
+  CHECK_THROWS_WITH(FilterOptionsProfile("kitti"),
+                    Catch::Contains("kitti") && Catch::Contains("default, euroc"));
+}
+
 TEST_CASE("the YAML writer round-trips") {
   FilterOptions o;
   o.features.max_features = 40;

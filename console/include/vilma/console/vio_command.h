@@ -24,7 +24,11 @@ namespace vilma::console {
 
 struct VioCommandOptions {
   std::string dataset;          // positional, required
-  std::string config_path;      // --config, empty: built-in defaults (= config/estimator.yaml)
+  std::string config_path;      // --config, empty: the built-in profile below
+  // --profile: built-in filter options (estimator::FilterOptionsProfile) when no --config:
+  // "auto" = "euroc" for a dataset whose rig comes from its EuRoC sensor.yaml files (a real
+  // EuRoC/ASL recording: no rig.yaml, no --rig), else "default".
+  std::string profile = "auto";
   std::string rig_path;         // --rig
   int camera = 0;               // --camera
   std::string out_path;         // --out, required

@@ -145,4 +145,14 @@ FilterOptions ReadFilterOptions(const YamlNode& root);
 // The effective options as YAML (same layout as config/estimator.yaml), printed at start.
 std::string FilterOptionsToYaml(const FilterOptions& options);
 
+// Built-in option profiles (docs/estimator.md, "Options for real images"), each equal to a
+// file in config/ (a test checks it):
+//   "default": FilterOptions() = config/estimator.yaml, tuned on the simulated sets;
+//   "euroc":   config/estimator_euroc.yaml, for real EuRoC VI-sensor images: feature bearing
+//              random walk noise.bearing 0.005 rad/sqrt(s) (not 0.001) and 40 features (not 25).
+// Throws InputError naming the profile for an unknown name.
+FilterOptions FilterOptionsProfile(const std::string& name);
+// The profile names, for help texts and errors: "default, euroc".
+std::string FilterOptionsProfileNames();
+
 }  // namespace vilma::estimator
