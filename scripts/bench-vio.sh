@@ -13,7 +13,9 @@
 # ATE max [m], worst roll/pitch error [deg] (gravity direction in the body frame, independent of
 # the yaw alignment; `vilma eval`'s roll/pitch), per-frame filter time p50/p99 [ms] (one core,
 # images loaded outside the timing), real-time factor of the whole run (wall time including PNG
-# decoding), resets, how the filter started and the first pose's delay after the first frame.
+# decoding), resets, how the filter started, the first pose's delay after the first frame and the
+# filter options (`vilma vio`'s built-in profile: auto picks euroc for the real EuRoC slices,
+# default for the simulated sets; or the --config file).
 set -euo pipefail
 
 repo_dir="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
@@ -72,6 +74,8 @@ m = re.search(r"initializations\s+(\d+) static, (\d+) moving \((\d+) by alignmen
               r"fallback\), (\d+) given", text)
 start = ("given" if int(m.group(5)) else "static" if int(m.group(1)) else
          "aligned" if int(m.group(3)) else "fallback" if int(m.group(4)) else "?")
+om = re.search(r"options\s+(?:built-in profile (\S+)|(\S+))", text)
+options = (om.group(1) or om.group(2).split("/")[-1]) if om else "?"
 ms = sorted(float(l.split(",")[1]) for l in open(timing_path).readlines()[1:])
 pct = lambda q: ms[min(len(ms) - 1, int(q * (len(ms) - 1) + 0.5))]
 j = json.load(open(json_path))
@@ -88,13 +92,13 @@ for l in open(est_path):
 pct_path = 100.0 * rmse / path if path > 0 else float("nan")
 print(f"| {name} | {duration:.1f} | {path:.2f} | {rmse:.4f} | {pct_path:.2f} | {amax:.4f} | "
       f"{tilt:.2f} | {pct(0.5):.2f} / {pct(0.99):.2f} | {rtf:.1f} | {resets} | {start} | "
-      f"{(est_t0 - first_frame) * 1e-9:.2f} |")
+      f"{(est_t0 - first_frame) * 1e-9:.2f} | {options} |")
 PY
 )")
 done
 
-echo "| dataset | duration [s] | path [m] | ATE RMSE [m] | ATE [% path] | ATE max [m] | roll/pitch err max [deg] | ms/frame p50 / p99 | real-time factor | resets | start | first pose after [s] |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| dataset | duration [s] | path [m] | ATE RMSE [m] | ATE [% path] | ATE max [m] | roll/pitch err max [deg] | ms/frame p50 / p99 | real-time factor | resets | start | first pose after [s] | options |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 printf '%s\n' "${rows[@]}"
 if [[ ${#missing[@]} -gt 0 ]]; then
   echo
