@@ -95,7 +95,7 @@ TEST_CASE("relax switches off 20 % wrong loop closures; the ATE stays within 10 
   const mapping::RelaxSummary injected_summary = mapping::RelaxPoseGraph({}, &injected);
   const double ate_clean = VertexAte(clean, dataset);
   const double ate_injected = VertexAte(injected, dataset);
-  INFO("clean: " << clean_summary.Report() << "\ninjected: " << injected_summary.Report()
+  INFO("clean: " << clean_summary.FullReport() << "\ninjected: " << injected_summary.FullReport()
                  << "\nATE clean " << ate_clean << " m, with " << wrong.size() << " wrong of "
                  << loops.size() + wrong.size() << " loops " << ate_injected << " m");
   std::size_t wrong_off = 0;

@@ -22,11 +22,13 @@
 #include "vilma/mapping/export/pmvs_export.h"
 #include "vilma/mapping/export/trajectory_export.h"
 #include "vilma/mapping/from_poses/map_from_poses.h"
+#include "vilma/mapping/from_poses/map_from_target.h"
 #include "vilma/mapping/keyframing/keyframe_heuristic.h"
 #include "vilma/mapping/landmarks/landmark_quality.h"
 #include "vilma/mapping/landmarks/retriangulation.h"
 #include "vilma/mapping/loop_closure/anchoring.h"
 #include "vilma/mapping/loop_closure/loop_closure.h"
+#include "vilma/mapping/optimization/pose_graph.h"
 #include "vilma/mapping/optimization/vi_optimization.h"
 #include "vilma/mapping/summarization/landmark_sparsification.h"
 
@@ -45,7 +47,8 @@ TEMPLATE_TEST_CASE("result types: one-line BriefReport and a FullReport of whole
                    mapping::KeyframingSummary, mapping::LandmarkQualitySummary,
                    mapping::RetriangulationSummary, mapping::TrackLandmarkSummary,
                    mapping::AnchoringSummary, mapping::LoopClosureSummary,
-                   mapping::ViOptimizationSummary, mapping::LandmarkSparsificationSummary) {
+                   mapping::ViOptimizationSummary, mapping::LandmarkSparsificationSummary,
+                   mapping::RelaxSummary, mapping::MapFromTargetSummary) {
   STATIC_REQUIRE(HasReports<TestType>::value);
   const TestType result{};
   CHECK(ReportShapeError(result) == "");

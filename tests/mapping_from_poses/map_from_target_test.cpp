@@ -91,7 +91,7 @@ TEST_CASE("Target map from the EuRoC calibration slice: consistent, poses are th
   options.max_duration_s = 6.0;
   MapFromTargetSummary summary;
   const mapstore::VIMap map = BuildMapFromTarget(recording, rig, options, &summary);
-  INFO(summary.Report());
+  INFO(summary.FullReport());
   CHECK(mapstore::CheckMapConsistency(map).ok());
   CHECK(summary.vertices > 100);
   CHECK(summary.landmarks <= 144);  // 6 x 6 tags, 4 corners each

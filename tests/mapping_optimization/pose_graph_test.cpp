@@ -88,7 +88,7 @@ TEST_CASE("relax pulls a drifting circle back with its loop closures") {
   }
   const double before = Rmse(c);
   const RelaxSummary s = RelaxPoseGraph(RelaxOptions{}, &c.map);
-  INFO(s.Report());
+  INFO(s.FullReport());
   CHECK(s.loop_terms == 9);
   CHECK(s.loops_switched_off == 0);
   const double after = Rmse(c);
@@ -112,7 +112,7 @@ TEST_CASE("relax switches off a wrong loop closure; without loops it refuses") {
   }
   RelaxPoseGraph(RelaxOptions{}, &clean.map);
   const RelaxSummary s = RelaxPoseGraph(RelaxOptions{}, &c.map);
-  INFO(s.Report());
+  INFO(s.FullReport());
   CHECK(s.loops_switched_off == 1);
   CHECK(Rmse(c) < 1.1 * Rmse(clean) + 0.01);
   RelaxOptions bad;

@@ -53,7 +53,7 @@ void LoadTarget(CommandContext& c, const LoadTargetOptions& o) {
   } catch (const InputError& e) {
     throw CommandError(e.what());
   }
-  c.out() << summary.Report();
+  c.out() << summary.FullReport();
   if (c.maps().Has(o.map_key)) c.maps().Remove(o.map_key);
   c.maps().Add(o.map_key, std::move(map), "");
   c.maps().Select(o.map_key);

@@ -40,7 +40,7 @@ void Register(CommandRegistry* registry) {
               c.out() << mapping::RelaxPoseGraph(o, &c.map(),
                                                  mapping::ResolveMissions(c.map(), o.map_mission),
                                                  c.progress())
-                             .Report();
+                             .FullReport();
             } catch (const std::invalid_argument& e) {
               throw CommandError(e.what());
             }

@@ -51,7 +51,16 @@ std::string MapFromTargetOptions::Validate() const {
   return "";
 }
 
-std::string MapFromTargetSummary::Report() const {
+std::string MapFromTargetSummary::BriefReport() const {
+  std::ostringstream out;
+  out << "ltr: " << vertices << " vertices from " << images << " images ("
+      << skipped_few_corners + skipped_pnp + skipped_outside_imu << " skipped), " << landmarks
+      << " held landmarks, " << observations << " observations, " << imu_edges
+      << " IMU edges, PnP RMSE median " << pnp_rmse_median_px << " px";
+  return out.str();
+}
+
+std::string MapFromTargetSummary::FullReport() const {
   std::ostringstream out;
   out << "images (first camera)  " << images << " (skipped: " << skipped_few_corners
       << " with too few corners, " << skipped_pnp << " by PnP, "

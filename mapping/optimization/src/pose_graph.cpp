@@ -38,15 +38,17 @@ std::string RelaxOptions::Validate() const {
   return "";
 }
 
-std::string RelaxSummary::Report() const {
+std::string RelaxSummary::BriefReport() const {
   std::ostringstream out;
   out << "relax: " << vertices << " vertices, " << odometry_terms << " odometry and "
       << loop_terms << " loop-closure terms; cost " << initial_cost << " -> " << final_cost
       << " in " << iterations << " iterations; " << loops_switched_off
       << " loop edges switched off; vertices moved mean " << mean_shift_m << " m (max "
-      << max_shift_m << "); " << seconds << " s\n";
+      << max_shift_m << "); " << seconds << " s";
   return out.str();
 }
+
+std::string RelaxSummary::FullReport() const { return BriefReport() + "\n"; }
 
 namespace {
 

@@ -62,7 +62,10 @@ struct MapFromTargetSummary {
   int imu_edges = 0;
   double pnp_rmse_median_px = 0.0;
   double gravity_tilt_deg = 0.0;  // angle between the target's z axis and up
-  std::string Report() const;
+  // "ltr: V vertices from I images (S skipped), L held landmarks, O observations, E IMU edges,
+  // PnP RMSE median X px".
+  std::string BriefReport() const;
+  std::string FullReport() const;  // one line per count (what `load_target_recording` prints)
 };
 
 // Camera pose T_T_C from target corners by PnP: OpenCV's IPPE (planar targets) on the

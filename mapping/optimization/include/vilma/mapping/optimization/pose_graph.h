@@ -46,7 +46,8 @@ struct RelaxSummary {
   double seconds = 0.0;
   double mean_shift_m = 0.0, max_shift_m = 0.0;  // vertex positions in G
   std::vector<mapstore::EdgeId> switched_off;    // the loop edges the graph rejected
-  std::string Report() const;
+  std::string BriefReport() const;  // "relax: N vertices, ...; T s"
+  std::string FullReport() const;   // the brief report as a line (what `relax` prints)
 };
 
 // Throws std::invalid_argument (map unchanged) for invalid options or a map without
