@@ -8,8 +8,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/daemon/latency_window.h"
-#include "vilma/mapping/locmap/localization_map_builder.h"
-#include "vilma/mapstore/map_io.h"
+#include "vilma/mapping/locmap/localization_map_file.h"
 
 namespace vilma::daemon {
 namespace {
@@ -53,36 +52,21 @@ void LocQueryScheduler::Queried(int64_t t_ns) {
 
 LocStage::LocStage(const LocalizationOptions& lo, const CameraConfig& camera, Pipeline* pipeline)
     : camera_(camera), p_(*pipeline) {
-  namespace fs = std::filesystem;
-  std::error_code ec;
   const auto t0 = std::chrono::steady_clock::now();
-  auto map = std::make_shared<localizer::LocalizationMap>();
-  if (fs::is_directory(lo.map, ec)) {
-    // A VI-map folder: the localization summary map is built from it now.
-    const mapstore::VIMap vimap = mapstore::LoadMap(lo.map);
-    localizer::LocalizerOptions lopt = lo.localizer_file.empty()
-                                           ? localizer::LocalizerOptions()
-                                           : localizer::LoadLocalizerOptions(lo.localizer_file);
-    mapping::LocalizationMapReport report;
-    *map = mapping::BuildLocalizationMap(vimap, lopt.map, &report);
-    if (report.missions_skipped > 0) {
-      std::fprintf(stderr,
-                   "vilma-estimatord: localization map %s: %d of %zu missions used (the others "
-                   "are not anchored: their frames are unknown in G)\n",
-                   lo.map.c_str(), report.missions_used, vimap.mission_ids().size());
-    }
-  } else if (fs::is_regular_file(lo.map, ec)) {
-    *map = localizer::LoadLocalizationMap(lo.map);
-  } else {
-    throw InputError(FormatInputError(lo.map, "localization.map / --localization-map",
-                                      "a localization map file or a VI-map folder"));
-  }
-  if (map->num_landmarks() == 0) {
-    throw InputError(FormatInputError(lo.map, "localization.map", "a map with good landmarks"));
-  }
+  // Options loaded once; the map opened the one way every program opens it (mapping/locmap):
+  // a .vlocmap file, or a VI-map folder summarized now.
   const localizer::LocalizerOptions lopt = lo.localizer_file.empty()
                                                ? localizer::LocalizerOptions()
                                                : localizer::LoadLocalizerOptions(lo.localizer_file);
+  const mapping::OpenedLocalizationMap opened =
+      mapping::OpenLocalizationMap(lo.map, lopt.map, "localization.map / --localization-map");
+  if (opened.from_vimap && opened.missions.missions_skipped > 0) {
+    std::fprintf(stderr,
+                 "vilma-estimatord: localization map %s: %d of %zu missions used (the others "
+                 "are not anchored: their frames are unknown in G)\n",
+                 lo.map.c_str(), opened.missions.missions_used, opened.vimap_missions);
+  }
+  const std::shared_ptr<localizer::LocalizationMap>& map = opened.map;
   localizer_ = std::make_unique<localizer::Localizer>(map, lopt);
   // The query profile (localization.features): by default the map builder's features with a
   // scale pyramid, so that the query matches the map across distances.
