@@ -125,6 +125,7 @@ LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::
     Read(n, "max_position_sigma_m", &a.max_position_sigma_m);
     Read(n, "max_rotation_sigma_deg", &a.max_rotation_sigma_deg);
     Read(n, "landmark_uncertainty", &a.landmark_uncertainty);
+    Read(n, "unweighted_covariance", &a.unweighted_covariance);
     Read(n, "rival_check", &a.rival_check);
     Read(n, "rival_exclusion_factor", &a.rival_exclusion_factor);
     Read(n, "max_rival_ratio", &a.max_rival_ratio);

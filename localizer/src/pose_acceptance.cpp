@@ -300,7 +300,9 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
   const bool have_covariance =
       PoseCovariance(camera, keypoints, p_G, out.inliers, out.T_G_C, ransac.keypoint_sigma_px,
                      &out.covariance_C, &q.residual_sigma_px, landmark_covariance,
-                     CovarianceOf::kUnweighted, &q.chi2_per_dof);
+                     options.unweighted_covariance ? CovarianceOf::kUnweighted
+                                                   : CovarianceOf::kWeighted,
+                     &q.chi2_per_dof);
   {
     const int iters = std::max(1, ransac.refine_iterations);
     const SplitConsistency si =

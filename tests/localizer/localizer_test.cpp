@@ -114,6 +114,7 @@ TEST_CASE("localizer options: the shipped YAML parses to the defaults", "[locali
   CHECK(o.acceptance.max_position_sigma_m == d.acceptance.max_position_sigma_m);
   CHECK(o.acceptance.max_rotation_sigma_deg == d.acceptance.max_rotation_sigma_deg);
   CHECK(o.acceptance.landmark_uncertainty == d.acceptance.landmark_uncertainty);
+  CHECK(o.acceptance.unweighted_covariance == d.acceptance.unweighted_covariance);
   CHECK(o.acceptance.rival_check == d.acceptance.rival_check);
   CHECK(o.acceptance.rival_exclusion_factor == d.acceptance.rival_exclusion_factor);
   CHECK(o.acceptance.max_rival_ratio == d.acceptance.max_rival_ratio);

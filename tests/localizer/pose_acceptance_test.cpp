@@ -1,4 +1,5 @@
 #include "vilma/localizer/pose_acceptance.h"
+#include "vilma/localizer/pose_consistency.h"
 
 #include <catch2/catch.hpp>
 #include <Eigen/Cholesky>
@@ -557,4 +558,85 @@ TEST_CASE("pose acceptance: far stereo landmarks make the pose uncertain only wi
   const AcceptedPose ignored = AcceptPose(cam, uv, scene.p_G, pose, ransac, off, scene.covariance_G);
   CHECK(ignored.verdict == PoseVerdict::kAccepted);
   CHECK(ignored.quality.position_sigma_m == exact.quality.position_sigma_m);
+}
+
+TEST_CASE("pose acceptance: unweighted_covariance gates on the sandwich covariance", "[localization]") {
+  // Near (5-10 m) and far (20-40 m) stereo landmarks: their noises differ by 10x, so the
+  // unweighted refinement's covariance (the sandwich) is larger than the weighted formula's.
+  // With a gate between the two the option alone turns the verdict.
+  const Camera cam = KittiCamera();
+  const UncertainScene scene = MakeUncertainScene(cam, 15, 45, 1.0, 11);
+  std::mt19937_64 rng(3);
+  std::normal_distribution<double> g(0.0, 0.5);
+  std::vector<Eigen::Vector2d> uv;
+  for (const Eigen::Vector3d& p : scene.p_G) {
+    Eigen::Vector2d k;
+    REQUIRE(cam.Project(kT_G_C.inverse() * p, &k) == Camera::ProjectionResult::kValid);
+    uv.push_back(k + Eigen::Vector2d(g(rng), g(rng)));
+  }
+  PoseRansacOptions ransac;
+  const PoseResult pose = EstimateCameraPose(cam, uv, scene.p_G, ransac);
+  REQUIRE(pose.status == PoseStatus::kOk);
+  PoseAcceptanceOptions weighted;
+  weighted.max_position_sigma_m = 10.0;
+  PoseAcceptanceOptions sandwich = weighted;
+  sandwich.unweighted_covariance = true;
+  const AcceptedPose w = AcceptPose(cam, uv, scene.p_G, pose, ransac, weighted, scene.covariance_G);
+  const AcceptedPose s = AcceptPose(cam, uv, scene.p_G, pose, ransac, sandwich, scene.covariance_G);
+  INFO("position sigma: weighted formula " << w.quality.position_sigma_m << " m, sandwich "
+                                           << s.quality.position_sigma_m << " m");
+  REQUIRE(w.verdict == PoseVerdict::kAccepted);
+  REQUIRE(s.verdict == PoseVerdict::kAccepted);
+  CHECK(s.quality.position_sigma_m > 1.2 * w.quality.position_sigma_m);
+  CHECK(s.quality.chi2_per_dof == Approx(w.quality.chi2_per_dof));
+  const double between = 0.5 * (s.quality.position_sigma_m + w.quality.position_sigma_m);
+  weighted.max_position_sigma_m = sandwich.max_position_sigma_m = between;
+  CHECK(AcceptPose(cam, uv, scene.p_G, pose, ransac, weighted, scene.covariance_G).verdict ==
+        PoseVerdict::kAccepted);
+  CHECK(AcceptPose(cam, uv, scene.p_G, pose, ransac, sandwich, scene.covariance_G).verdict ==
+        PoseVerdict::kUncertainPose);
+}
+
+TEST_CASE("pose acceptance: split-half consistency agrees for a right pose, not for a biased one",
+          "[localization]") {
+  // 80 landmarks over the image with 0.5 px noise: the two halves (left/right of the inliers'
+  // principal axis, and near/far) agree within their noise (d^2 below chi^2_6's 99.9 % point,
+  // 22.5). Then the landmarks of the right half of the image are shifted 0.15 m sideways (a
+  // systematic error of part of the map): refined on all points the pose is a compromise, and
+  // the halves disagree by far more than their covariances allow.
+  const Camera cam = EurocCamera();
+  std::mt19937_64 rng(21);
+  Scene s;
+  AddInliers(cam, 80, 0.05, 0.05, 0.95, 0.95, 2, 8, 0.5, &rng, &s);
+  std::vector<int> all(s.uv.size());
+  for (std::size_t i = 0; i < all.size(); ++i) all[i] = static_cast<int>(i);
+  Transformation T = kT_G_C;
+  RefineCameraPose(cam, s.uv, s.p_G, all, 10, 0.5, &T);
+  for (const SplitAxis axis : {SplitAxis::kImageAxis, SplitAxis::kDepth}) {
+    const SplitConsistency c = SplitHalfConsistency(cam, s.uv, s.p_G, all, T, 10, 0.5, {}, axis);
+    INFO("axis " << static_cast<int>(axis) << ": d^2 " << c.mahalanobis2 << ", " << c.position_m
+                 << " m, " << c.rotation_deg << " deg");
+    REQUIRE(c.valid);
+    CHECK(c.mahalanobis2 < 22.5);
+  }
+  Scene biased = s;
+  for (std::size_t i = 0; i < biased.uv.size(); ++i) {
+    if (biased.uv[i].x() > 0.5 * cam.width()) {
+      biased.p_G[i] += kT_G_C.rotation() * Eigen::Vector3d(0.15, 0.0, 0.0);
+    }
+  }
+  Transformation T_biased = kT_G_C;
+  RefineCameraPose(cam, biased.uv, biased.p_G, all, 10, 0.5, &T_biased);
+  const SplitConsistency c =
+      SplitHalfConsistency(cam, biased.uv, biased.p_G, all, T_biased, 10, 0.5, {},
+                           SplitAxis::kImageAxis);
+  INFO("biased: d^2 " << c.mahalanobis2 << ", " << c.position_m << " m, " << c.rotation_deg
+                      << " deg");
+  REQUIRE(c.valid);
+  CHECK(c.mahalanobis2 > 100.0);
+  CHECK(c.position_m > 0.05);
+  // Fewer than 8 inliers: not measured.
+  CHECK_FALSE(SplitHalfConsistency(cam, s.uv, s.p_G, {0, 1, 2, 3, 4, 5, 6}, T, 10, 0.5, {},
+                                   SplitAxis::kDepth)
+                  .valid);
 }

@@ -54,6 +54,13 @@ struct PoseAcceptanceOptions {
   // depth is uncertain by metres, then constrains the position little instead of as much as a
   // near one. False: the landmarks are taken as exact (as for a map without covariances).
   bool landmark_uncertainty = true;
+  // Which covariance the sigma gates (and the published covariance) use with landmark
+  // covariances. false: (sum J^T Sigma_r^-1 J)^-1, the weighted estimate's. true: the sandwich
+  // H^-1 (sum J^T Sigma_r J) H^-1 of the unweighted refinement AcceptPose actually runs — the
+  // consistent one, but the maps' landmark covariances are conservative (chi^2 / dof of correct
+  // poses 0.1-0.5), so it rejects many correct few-keypoint poses (docs/localizer.md,
+  // "Sandwich covariance and split-half consistency": KITTI few-keypoints 72.7 -> 40.9 %).
+  bool unweighted_covariance = false;
   // Second hypothesis: RANSAC again on the matches whose error under the winner exceeds
   // rival_exclusion_factor x threshold_px; its inliers over the winner's must not exceed
   // max_rival_ratio. A P3P sample alone makes 3-4 inliers, so this also asks the winner for
