@@ -83,17 +83,11 @@ void Residual(const ImuPreintegration& pre, double gravity, double const* const*
 }  // namespace
 
 Eigen::Matrix<double, 15, 15> InertialCostFunction::SqrtInformation() const {
-  Eigen::Matrix<double, 15, 15> U = Eigen::Matrix<double, 15, 15>::Zero();
-  const Eigen::Matrix<double, 9, 9> information = preintegration_->covariance().inverse();
-  U.topLeftCorner<9, 9>() = information.llt().matrixU();
-  const ImuNoise& n = preintegration_->noise();
-  const double dt = std::max(preintegration_->dt_s(), 1e-6);
-  // A zero density (a noise-free simulated IMU) still needs a finite weight.
-  const double sg = std::max(n.gyroscope_random_walk, 1e-9) * std::sqrt(dt);
-  const double sa = std::max(n.accelerometer_random_walk, 1e-9) * std::sqrt(dt);
-  U.block<3, 3>(9, 9) = Eigen::Matrix3d::Identity() / sg;
-  U.block<3, 3>(12, 12) = Eigen::Matrix3d::Identity() / sa;
-  return U;
+  // The joint covariance of the five residual blocks (imu_preintegration.h): the bias random
+  // walk inside the edge is correlated with Δv and Δp.
+  const Eigen::Matrix<double, 15, 15> information =
+      preintegration_->full_covariance().inverse();
+  return information.llt().matrixU();
 }
 
 Eigen::Matrix<double, 15, 1> InertialCostFunction::RawResidual(

@@ -11,7 +11,11 @@
 //   Δp_k+1 = Δp_k + Δv_k dt + ½ ΔR_k½ a dt²       (Forster eq. 37, ΔR_k½ = ΔR_k Exp(w dt/2):
 //                                                   the rotation at the interval's middle)
 // with the bias Jacobians (Forster appendix B) and the covariance of [δφ, δv, δp] propagated with
-// the discrete noise σ²/dt of the continuous densities (eq. 62-63). A bias change δb from b̄ is
+// the discrete noise σ²/dt of the continuous densities (eq. 62-63), jointly with the bias random
+// walk inside the edge: the state [δφ, δv, δp, w_g, w_a] with w = b(t) - b_i, whose steps add
+// σ_bw² dt and feed δφ (-J_r dt w_g), δv (-ΔR dt w_a) and δp (-½ ΔR dt² w_a). Without that
+// coupling an edge of 1 s under-states the velocity variance by ~1/3 (EuRoC's densities; the
+// test noise_consistency_test.cpp), so long keyframed edges were over-weighted. A bias change δb from b̄ is
 // applied to first order (eq. 44):
 //   ΔR(b) = ΔR Exp(∂R/∂b_g δb_g),  Δv(b) = Δv + ∂v/∂b_g δb_g + ∂v/∂b_a δb_a,  Δp likewise.
 // When the bias moves far from b̄ (NeedsReintegration), integrate again at the new bias.
@@ -54,7 +58,9 @@ class ImuPreintegration {
   const Eigen::Matrix3d& dp_dbg() const { return dp_dbg_; }
   const Eigen::Matrix3d& dp_dba() const { return dp_dba_; }
   // Covariance of [δφ, δv, δp] (rad, m/s, m).
-  const Eigen::Matrix<double, 9, 9>& covariance() const { return covariance_; }
+  Eigen::Matrix<double, 9, 9> covariance() const { return covariance_.topLeftCorner<9, 9>(); }
+  // Joint covariance of [δφ, δv, δp, b_g,j - b_g,i, b_a,j - b_a,i] (the inertial residual's).
+  const Eigen::Matrix<double, 15, 15>& full_covariance() const { return covariance_; }
   const Eigen::Vector3d& gyro_bias() const { return gyro_bias_; }  // b̄_g
   const Eigen::Vector3d& accel_bias() const { return accel_bias_; }
   const ImuNoise& noise() const { return noise_; }
@@ -77,7 +83,7 @@ class ImuPreintegration {
   Eigen::Quaterniond delta_R_ = Eigen::Quaterniond::Identity();
   Eigen::Vector3d delta_v_ = Eigen::Vector3d::Zero(), delta_p_ = Eigen::Vector3d::Zero();
   Eigen::Matrix3d dR_dbg_, dv_dbg_, dv_dba_, dp_dbg_, dp_dba_;
-  Eigen::Matrix<double, 9, 9> covariance_;
+  Eigen::Matrix<double, 15, 15> covariance_;
 };
 
 }  // namespace vilma::mapping
