@@ -84,7 +84,7 @@ for run in $(seq 1 "$runs"); do
   mkdir -p "$dir"
   port=$(( 20000 + (run * 7 + seed) % 40000 ))
   url="udpm://239.255.76.67:$port?ttl=0"
-  printf 'incomplete_timeout_s: 1.0\n' > "$dir/mapstored.yaml"
+  printf 'incomplete_timeout_s: 3.0\n' > "$dir/mapstored.yaml"
   "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" --config "$dir/mapstored.yaml" \
     > "$dir/mapstored1.log" 2>&1 &
   store=$!
@@ -114,7 +114,7 @@ for run in $(seq 1 "$runs"); do
     wait $sender 2> /dev/null || true
     # One vertex per chunk after the BEGIN chunk 0 (which holds the first vertex as well).
     expected=$(( $(last_ack "$dir/sender.log") + 1 ))
-    for _ in $(seq 60); do grep -q "finalized" "$dir"/mapstored*.log && break; sleep 0.1; done
+    for _ in $(seq 100); do grep -q "finalized" "$dir"/mapstored*.log && break; sleep 0.1; done
   fi
   kill -TERM $store 2> /dev/null || true
   wait $store 2> /dev/null || true
@@ -153,7 +153,7 @@ if [ "$daemon_runs" -gt 0 ]; then
       -e 's/^    end_timeout_s: 5.0/    end_timeout_s: 15.0/' "$repo_dir/config/daemon.yaml" > "$data/daemon.yaml"
   grep -q '^    end_timeout_s: 15.0' "$data/daemon.yaml" ||
     { echo "crash-campaign.sh: config/daemon.yaml changed: cannot turn streaming on" >&2; exit 1; }
-  printf 'incomplete_timeout_s: 1.0\n' > "$data/mapstored.yaml"
+  printf 'incomplete_timeout_s: 3.0\n' > "$data/mapstored.yaml"
 fi
 for run in $(seq 1 "$daemon_runs"); do
   dir=$work/daemon-$run
@@ -199,7 +199,8 @@ for run in $(seq 1 "$daemon_runs"); do
   # SIGTERM: the daemon flushes, ends its mission and waits for mapstored's final ack.
   kill -TERM $daemon 2> /dev/null || true
   wait $daemon 2> /dev/null || true
-  # The killed daemon's mission is finalized as incomplete after 1 s without chunks.
+  # The killed daemon's mission is finalized as incomplete after 3 s without chunks (the
+  # living sender sends a keepalive every second while idle: a 1 s timeout raced it).
   if [ "$killed" = daemon ]; then
     for _ in $(seq 100); do grep -q "finalized as incomplete" "$dir/mapstored.log" && break; sleep 0.1; done
   fi

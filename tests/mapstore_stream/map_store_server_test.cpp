@@ -348,6 +348,33 @@ TEST_CASE("keepalives keep a silent sender's mission open; they never journal or
   CHECK(server.counters().chunks_malformed == malformed + 1);
 }
 
+TEST_CASE("a map folder appears whole: saved in staging, renamed into place; a crash's staging is removed",
+          "[mapstore_stream]") {
+  SyntheticMissionOptions mo;
+  mo.vertices = 5;
+  mo.keypoints_per_frame = 4;
+  mo.landmarks_per_vertex = 1;
+  mo.name = "staged";
+  const auto deltas = MakeSyntheticMissionDeltas(mo);
+  const MissionId id = deltas[0].mission.id;
+  MapStoreServerOptions so;
+  so.root = FreshRoot("staging");
+  MapStoreServer server(so, [](const vilma::mission_ack_t&) {}, nullptr);
+  server.Start();
+  // What a kill -9 during an earlier SaveMap of this mission leaves: a half-written folder.
+  const std::string staging = so.root + "/.journal/" + id.Hex() + ".staging";
+  REQUIRE(std::system(("mkdir -p '" + staging + "/missions' && echo x > '" + staging + "/junk'").c_str()) == 0);
+  MissionStreamSender sender(id, mo.name, FastSender(), [&](const vilma::mission_chunk_t& c) { server.OnChunk(c); });
+  for (const MissionDelta& d : deltas) REQUIRE(sender.Send(d));
+  REQUIRE(sender.End());
+  server.Flush();
+  CHECK(server.counters().missions_completed == 1);
+  CHECK(server.MissionFolder(id) == so.root + "/staged");  // its own name, not staged_<id>
+  CHECK(::access(staging.c_str(), F_OK) != 0);             // moved into place
+  CHECK(::access((so.root + "/staged/junk").c_str(), F_OK) != 0);
+  RequireMapsEqual(Expected(deltas, true), LoadMap(so.root + "/staged"));
+}
+
 TEST_CASE("shutdown keeps open missions in journals unless asked to finalize", "[mapstore_stream]") {
   SyntheticMissionOptions mo;
   mo.vertices = 4;

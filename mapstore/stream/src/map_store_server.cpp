@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -439,8 +440,21 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
       map.AddMission(mission);
     }
     map.mission(id).complete = complete;
+    // The folder appears whole or not at all: saved into a staging folder beside the journals
+    // (same file system), then renamed into place. A kill -9 during SaveMap left a
+    // manifest-less folder under the mission's name before (crash campaign, daemon run 55):
+    // it did not load, and the recovered mission went to <name>_<id>. A staging folder left by
+    // such a crash is this mission's own unfinished output and is removed first.
+    const std::string staging = JournalDir() + "/" + m.hex + ".staging";
+    std::filesystem::remove_all(staging);
+    SaveMap(map, staging, options_.save);
     folder = ChooseFolder(m.name, id);
-    SaveMap(map, options_.root + "/" + folder, options_.save);
+    if (::rename(staging.c_str(), (options_.root + "/" + folder).c_str()) != 0) {
+      throw std::runtime_error("cannot move " + staging + " to " + options_.root + "/" + folder +
+                               ": " + std::strerror(errno));
+    }
+    SyncDir(options_.root);
+    SyncDir(JournalDir());
   } catch (const std::exception& e) {
     ++counters_.finalize_errors;
     const bool full = std::strstr(e.what(), std::strerror(ENOSPC)) != nullptr;
