@@ -111,7 +111,7 @@ TEST_CASE("flags: wrong types, unknown flags and invalid options are errors nami
   CHECK_THAT(f.err.str(), Catch::Contains("show: error: --count: expected an integer"));
 }
 
-TEST_CASE("set changes a default for the session; the command line still wins; flag files") {
+TEST_CASE("set changes a default for the session, the command line still wins, flag files") {
   Fixture f;
   REQUIRE(f.session.Execute("set count 11").ok());
   REQUIRE(f.session.Execute("set --ratio=0.75").ok());
@@ -166,7 +166,7 @@ TEST_CASE("modifying commands need a selected map") {
   CHECK_THAT(r.message, Catch::Contains("no map selected"));
 }
 
-TEST_CASE("scripts: ';' and newlines, comments, quotes, stop at the first failure") {
+TEST_CASE("scripts: semicolons and newlines, comments, quotes, stop at the first failure") {
   const auto commands = SplitScript("show a; show 'b;c' # comment; not run\n\n# only\nshow \"d#e\"");
   REQUIRE(commands.size() == 3);
   CHECK(commands[0] == std::make_pair(1, std::string("show a")));

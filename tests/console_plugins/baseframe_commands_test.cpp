@@ -8,7 +8,7 @@ namespace {
 
 using Fixture = test::ConsoleFixture;
 
-TEST_CASE("sbk marks the first mission known, or the one named; T_G_M unchanged") {
+TEST_CASE("sbk marks the first mission known, or the one named, T_G_M unchanged") {
   const auto& maps = test::TestMaps();
   Fixture f;
   REQUIRE(f.Run("load_merge_all_maps " + maps.maps_folder).ok());

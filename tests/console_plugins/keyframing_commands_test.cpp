@@ -40,7 +40,7 @@ TEST_CASE("kfh on a daemon map keeps every 10th vertex and conserves the IMU sam
   CHECK(after.num_landmarks() < before.num_landmarks());
 }
 
-TEST_CASE("kfh flags map onto the options; bad values and missions leave the map unchanged") {
+TEST_CASE("kfh flags map onto the options, bad values and missions leave the map unchanged") {
   const auto& maps = test::TestMaps();
   Fixture f;
   REQUIRE(f.Run("load " + maps.session0_map).ok());

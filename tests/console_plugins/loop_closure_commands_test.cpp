@@ -56,7 +56,7 @@ TEST_CASE("lc within a mission merges re-observed landmarks and adds loop-closur
   CHECK_THAT(counts(reports[0]), Catch::Contains("loops verified"));
 }
 
-TEST_CASE("lc: a gap longer than the session finds nothing; bad input changes nothing") {
+TEST_CASE("lc: a gap longer than the session finds nothing, bad input changes nothing") {
   const auto& maps = test::TestMaps();
   Fixture f;
   REQUIRE(f.Run("load " + maps.session0_map).ok());
@@ -93,7 +93,7 @@ Transformation WorldFromMission(const mapstore::VIMap& map, const mapstore::Miss
   return Transformation(best->q_W_I, best->p_W_I) * v.T_M_I.inverse();
 }
 
-TEST_CASE("aam places the second session where the ground truth says; look-alikes stay unknown") {
+TEST_CASE("aam places the second session where the ground truth says, look-alikes stay unknown") {
   const auto& maps = test::TestMaps();
   {
     Fixture f;
@@ -145,7 +145,7 @@ TEST_CASE("aam places the second session where the ground truth says; look-alike
 namespace vilma::console {
 namespace {
 
-TEST_CASE("aam on a map of one mission: it anchors G; a known baseframe is left as it is") {
+TEST_CASE("aam on a map of one mission: it anchors G, a known baseframe is left as it is") {
   const auto& maps = test::TestMaps();
   Fixture f;
   REQUIRE(f.Run("load " + maps.session0_map).ok());

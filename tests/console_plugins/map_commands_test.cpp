@@ -77,7 +77,7 @@ TEST_CASE("bad input: missing folder, corrupted file, unknown command, bad flag,
   CHECK(mapstore::LoadMap(maps.session1_map).num_vertices() > 0);  // untouched
 }
 
-TEST_CASE("save writes a map that loads back equal; --overwrite replaces it atomically") {
+TEST_CASE("save writes a map that loads back equal, --overwrite replaces it atomically") {
   const auto& maps = test::TestMaps();
   const std::string dir = test::ConsoleScratch("save");
   Fixture f;

@@ -42,7 +42,7 @@ TEST_CASE("optvi on a daemon map: the IMU biases and landmarks improve, runs agr
   CHECK(results[0] == results[1]);
 }
 
-TEST_CASE("optv and the optimization flags; bad values change nothing") {
+TEST_CASE("optv and the optimization flags, bad values change nothing") {
   const auto& maps = test::TestMaps();
   Fixture f;
   REQUIRE(f.Run("load " + maps.session0_map).ok());

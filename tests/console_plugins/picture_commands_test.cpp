@@ -19,7 +19,7 @@ using Fixture = test::ConsoleFixture;
 
 }  // namespace
 
-TEST_CASE("plot_map writes a PNG of a daemon map; bad --out and options fail clearly") {
+TEST_CASE("plot_map writes a PNG of a daemon map, bad --out and options fail clearly") {
   const auto& maps = test::TestMaps();
   const std::string dir = test::ConsoleScratch("plot_map");
   Fixture f;

@@ -43,7 +43,7 @@ double VertexAte(const mapstore::VIMap& map, const std::string& dataset) {
   return std::sqrt(sum / static_cast<double>(p_W.size()));
 }
 
-TEST_CASE("relax switches off 20 % wrong loop closures; the ATE stays within 10 % of clean",
+TEST_CASE("relax switches off 20 % wrong loop closures, the ATE stays within 10 % of clean",
           "[relax]") {
   std::string map_folder, dataset, lc = "lc --lc_min_time_gap_s=3";  // a 10 s session
   const char* env_map = std::getenv("VILMA_RELAX_MAP");

@@ -56,7 +56,7 @@ TEST_CASE("lsparsify then summary_map: N landmarks kept, the .vlocmap holds them
         std::filesystem::file_size(dir + "/full.vlocmap") / 2);
 }
 
-TEST_CASE("lsparsify flags: methods, fraction; bad values leave the map unchanged", "[lsparsify]") {
+TEST_CASE("lsparsify flags: methods, fraction, bad values leave the map unchanged", "[lsparsify]") {
   const auto& maps = test::TestMaps();
   Fixture f;
   REQUIRE(f.Run("load " + maps.session0_map).ok());

@@ -71,7 +71,7 @@ TEST_CASE("WriteFileAtomically writes and replaces the content and leaves no tem
   CHECK((st.st_mode & 0777) == 0644);  // readable by others, as the data files it replaces
 }
 
-TEST_CASE("CommitFileAtomically: a file another writer made replaces the target; a missing one "
+TEST_CASE("CommitFileAtomically: a file another writer made replaces the target, a missing one "
           "leaves it", "[atomic_file]") {
   testing::TempDir dir;
   const std::string path = dir.File("mesh.ply");

@@ -52,7 +52,7 @@ TEST_CASE("SensorSyncOptions validation and constructor", "[sync]") {
   CHECK(SensorSynchronizer(SensorSyncOptions(), {0, 0}).num_cameras() == 2);
 }
 
-TEST_CASE("Mono: a frame waits for an IMU sample at or after it; samples hand over with one "
+TEST_CASE("Mono: a frame waits for an IMU sample at or after it, samples hand over with one "
           "repeated boundary sample", "[sync]") {
   SensorSynchronizer sync(SensorSyncOptions(), {3 * kMs});  // t_imu = t_cam + 3 ms
   FeedImu(&sync, kT0, kT0 + 20 * kMs);

@@ -40,7 +40,7 @@ int RunSelf(const std::string& env, const std::string& spec) {
   return WEXITSTATUS(status);
 }
 
-TEST_CASE("VILMA_SKIP exits 77 (ctest: skipped); VILMA_REQUIRE_ALL=1 makes it a failure",
+TEST_CASE("VILMA_SKIP exits 77 (ctest: skipped), VILMA_REQUIRE_ALL=1 makes it a failure",
           "[test_skip]") {
   CHECK(RunSelf("", "[.skip_selftest]") == testing::kSkipReturnCode);
   CHECK(RunSelf("VILMA_REQUIRE_ALL=1", "[.skip_selftest]") == 1);

@@ -209,7 +209,7 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
 namespace vilma::daemon {
 namespace {
 
-TEST_CASE("localization query features: built-in profile, file, inline; config file equals the default",
+TEST_CASE("localization query features: built-in profile, file, inline, config file equals the default",
           "[daemon][localization]") {
   // The built-in profile: the map builder's features with a scale pyramid for the query.
   const localizer::KeyframeFeatureOptions def = localizer::LocalizationQueryFeatureOptions();

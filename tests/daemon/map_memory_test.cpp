@@ -198,7 +198,7 @@ TEST_CASE("map memory: a streamed mission releases acknowledged data and stays t
   CHECK(streamed.stats().keypoints_dropped == whole.stats().keypoints_dropped);
 }
 
-TEST_CASE("map memory: the whole-mission mode keeps everything; images need a local copy",
+TEST_CASE("map memory: the whole-mission mode keeps everything, images need a local copy",
           "[daemon][mapping][memory]") {
   const SlidingStream stream(40);
   MapBuilder whole(stream.rig, mapping::MapBuilderOptions(), 7, "slide");

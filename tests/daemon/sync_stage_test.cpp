@@ -166,7 +166,7 @@ TEST_CASE("sync stage: bad synchronizer options are an input error", "[daemon][s
   CHECK_THROWS_WITH(SyncStage(o, &p, &out, &in_flight), Catch::Contains("daemon options: sync:"));
 }
 
-TEST_CASE("sync stage: stereo frames carry the second camera's image; a missing one is released "
+TEST_CASE("sync stage: stereo frames carry the second camera's image, a missing one is released "
           "without it",
           "[daemon][sync][stereo]") {
   Pipeline p(true);

@@ -128,7 +128,7 @@ TEST_CASE("Device stamps through the clock filter: mid-exposure within 0.1 ms at
   CHECK(mean * 1e-6 == Approx(1.0).margin(0.15));
 }
 
-TEST_CASE("An unknown transport latency is a constant bias; time_offset shifts", "[aravis]") {
+TEST_CASE("An unknown transport latency is a constant bias, time_offset shifts", "[aravis]") {
   SimulatedCamera cam;
   FrameStampOptions options;  // transport latency not told: utime late by it
   const std::vector<double> errors = StampErrors(cam, options, 600, 100);

@@ -33,7 +33,7 @@ std::string CommandLineError(const std::vector<std::string>& args) {
   return "";
 }
 
-TEST_CASE("Aravis options: defaults are valid; channels", "[aravis]") {
+TEST_CASE("Aravis options: defaults are valid, channels", "[aravis]") {
   AravisOptions o;
   CHECK(o.Validate().empty());
   CHECK(o.DataChannel() == "CAM0");

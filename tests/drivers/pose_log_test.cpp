@@ -76,7 +76,7 @@ localization_t MakeAttempt(int64_t utime, const std::string& status, const std::
   return m;
 }
 
-TEST_CASE("ReadLocalizationLog: attempts with a pose, counts for recall; type by fingerprint",
+TEST_CASE("ReadLocalizationLog: attempts with a pose, counts for recall, type by fingerprint",
           "[lcm]") {
   const std::string dir = std::filesystem::temp_directory_path().string() + "/vilma_loc_log_" +
                           std::to_string(::getpid());

@@ -116,7 +116,7 @@ TEST_CASE("Levels whose samples leave the image are invalid and skipped", "[patc
                                          Eigen::Matrix2d::Identity(), photometric, &r, &J));
 }
 
-TEST_CASE("Identity warp at the true position gives zero residual; rows coarse first",
+TEST_CASE("Identity warp at the true position gives zero residual, rows coarse first",
           "[patch]") {
   const cv::Mat image = Texture().Render(kWidth, kHeight);
   ImagePyramid pyramid;

@@ -187,7 +187,7 @@ TEST_CASE("linear alignment recovers velocity and gravity exactly without noise"
   }
 }
 
-TEST_CASE("linear alignment with bearing noise and unknown biases: bounded error; refinement "
+TEST_CASE("linear alignment with bearing noise and unknown biases: bounded error, refinement "
           "recovers the gyro bias") {
   for (unsigned seed : {3u, 4u, 5u}) {
     const Scenario s = MakeScenario(1.0 / 450.0, seed);  // 1 px

@@ -13,7 +13,7 @@ namespace {
 
 using namespace eval_test;  // NOLINT: the shared test trajectories
 
-TEST_CASE("GravityYaw is the yaw closest to a rotation; roll/pitch does not leak", "[eval]") {
+TEST_CASE("GravityYaw is the yaw closest to a rotation, roll/pitch does not leak", "[eval]") {
   // Pure swings (rotations about horizontal axes) have no yaw.
   for (double axis_deg : {0.0, 30.0, 90.0, 135.0, -60.0}) {
     const Eigen::Vector3d u(std::cos(axis_deg * kDeg), std::sin(axis_deg * kDeg), 0.0);

@@ -195,7 +195,7 @@ TEST_CASE("align first: a roll/pitch of the estimate's world stays in the error"
   }
 }
 
-TEST_CASE("align first uses the first MATCHED pose; one match is enough", "[eval]") {
+TEST_CASE("align first uses the first MATCHED pose, one match is enough", "[eval]") {
   const Trajectory gt = MakeLoop(50);
   const Transformation T_G_E(Rz(0.4), Eigen::Vector3d(1, 2, 3));
   Trajectory est;

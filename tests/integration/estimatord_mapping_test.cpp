@@ -169,7 +169,7 @@ TEST_CASE("vilma-estimatord --input-log --save-map: a consistent map, the same o
   CHECK(runs[0] == runs[1]);  // every file, byte for byte
 }
 
-TEST_CASE("vilma-estimatord streams the mission to vilma-mapstored; kill -9 of mapstored",
+TEST_CASE("vilma-estimatord streams the mission to vilma-mapstored, kill -9 of mapstored",
           "[integration][daemon][mapping]") {
   if (!HaveBinaries()) return;
   const RoomData& room = Room();
@@ -379,7 +379,7 @@ double PosYawRmse(const VIMap& map, const std::vector<mapstore::VertexId>& verti
 // map has two missions, each one frame M (consistent with the ground truth after its own
 // alignment), no IMU edge between them, byte for byte the same on every run; streamed, both
 // missions are complete in mapstored with the local copy's ids.
-TEST_CASE("vilma-estimatord: a filter reset ends the mission; the next frames are a new mission",
+TEST_CASE("vilma-estimatord: a filter reset ends the mission, the next frames are a new mission",
           "[integration][daemon][mapping]") {
   if (!HaveBinaries()) return;
   const RoomData& room = Room();

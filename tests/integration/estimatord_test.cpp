@@ -377,7 +377,7 @@ int CountContaining(const std::vector<std::string>& messages, const std::string&
   return n;
 }
 
-TEST_CASE("vilma-estimatord: READY and watchdog for systemd; a stalled filter stops the watchdog",
+TEST_CASE("vilma-estimatord: READY and watchdog for systemd, a stalled filter stops the watchdog",
           "[integration][daemon]") {
   if (!HaveBinaries()) return;
   const RoomData& room = Room();

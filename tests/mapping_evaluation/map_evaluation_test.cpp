@@ -60,7 +60,7 @@ TEST_CASE("EvaluateMap: an exact map has zero errors") {
   CHECK_THAT(e.ToJson(), Catch::Contains("\"surface_distance_m\": {\"count\": 30"));
 }
 
-TEST_CASE("EvaluateMap: a moved map shows the shift; posyaw alignment removes it") {
+TEST_CASE("EvaluateMap: a moved map shows the shift, posyaw alignment removes it") {
   testing::GeometricMap g = testing::MakeGeometricMap(6, 30);
   for (const auto& id : g.landmarks) g.map.landmark(id).quality = mapstore::LandmarkQuality::kGood;
   const std::vector<GroundTruthState> gt = TrueStates(g.map);

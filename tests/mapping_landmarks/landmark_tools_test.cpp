@@ -92,7 +92,7 @@ TEST_CASE("rtl restores perturbed landmarks from their observations, across miss
   }
 }
 
-TEST_CASE("rtl with pixel noise: millimetre landmarks; untriangulable ones kept and marked bad") {
+TEST_CASE("rtl with pixel noise: millimetre landmarks, untriangulable ones kept and marked bad") {
   GeometricMap g = MakeGeometricMap(6, 40, 0.5);
   // Landmark 0 keeps a single observation: no triangulation.
   auto& obs = g.map.landmark(g.landmarks[0]).observations;

@@ -98,7 +98,7 @@ TEST_CASE("relax pulls a drifting circle back with its loop closures") {
   CHECK(mapstore::CheckMapConsistency(c.map).ok());
 }
 
-TEST_CASE("relax switches off a wrong loop closure; without loops it refuses") {
+TEST_CASE("relax switches off a wrong loop closure, without loops it refuses") {
   Circle c = MakeCircle();
   CHECK_THROWS_WITH(RelaxPoseGraph(RelaxOptions{}, &c.map), Catch::Contains("no loop-closure"));
   for (int a : {39, 38, 37}) {

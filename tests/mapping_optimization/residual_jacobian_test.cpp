@@ -188,7 +188,7 @@ TEST_CASE("Time-offset reprojection Jacobians (pose, speed/bias, landmark, basef
   }
 }
 
-TEST_CASE("Time-offset reprojection: zero offset is the plain residual; the offset finds the "
+TEST_CASE("Time-offset reprojection: zero offset is the plain residual, the offset finds the "
           "pose at the exposure time") {
   const SensorRig rig = mapstore::testing::TestRig();
   const Camera& camera = rig.cameras[0].camera;

@@ -69,7 +69,7 @@ TEST_CASE("optvi keeps an exact map exact") {
   CHECK(VertexRmse(s, AlignmentType::kNone) < 1e-4);
 }
 
-TEST_CASE("optvi brings a perturbed map back; the first vertex's position and yaw hold") {
+TEST_CASE("optvi brings a perturbed map back, the first vertex's position and yaw hold") {
   SimulatedViMap s = MakeSimulatedViMap(10.0, 0.5);
   Perturb(&s, 0.05, 1.0, 3);
   const auto first = s.map.VertexChain(s.map.mission_ids()[0]).front();

@@ -51,7 +51,7 @@ LandmarkSparsificationOptions Options(const std::string& method, int keep) {
   return o;
 }
 
-TEST_CASE("lsparsify keeps N good landmarks; the ILP covers every keyframe, the baselines do not",
+TEST_CASE("lsparsify keeps N good landmarks, the ILP covers every keyframe, the baselines do not",
           "[lsparsify]") {
   int good = 0;
   const VIMap original = GoodMap(&good);
@@ -124,7 +124,7 @@ TEST_CASE("lsparsify: partitions split the budget and still cover every keyframe
   CHECK(map.num_landmarks() == 80);
 }
 
-TEST_CASE("lsparsify is deterministic; the random baseline follows its seed", "[lsparsify]") {
+TEST_CASE("lsparsify is deterministic, the random baseline follows its seed", "[lsparsify]") {
   int good = 0;
   const VIMap original = GoodMap(&good);
   for (const std::string method : {"ilp", "random"}) {
@@ -141,7 +141,7 @@ TEST_CASE("lsparsify is deterministic; the random baseline follows its seed", "[
   CHECK(Landmarks(a) != Landmarks(b));
 }
 
-TEST_CASE("lsparsify: a budget above the good landmarks removes only the others; keep_fraction",
+TEST_CASE("lsparsify: a budget above the good landmarks removes only the others, keep_fraction",
           "[lsparsify]") {
   int good = 0;
   VIMap map = GoodMap(&good);
@@ -176,7 +176,7 @@ TEST_CASE("lsparsify: invalid options throw and leave the map unchanged", "[lspa
 namespace vilma::mapping {
 namespace {
 
-TEST_CASE("lsparsify: an ILP that reaches its time limit fails with a message; map unchanged",
+TEST_CASE("lsparsify: an ILP that reaches its time limit fails with a message, map unchanged",
           "[lsparsify]") {
   mapstore::testing::SyntheticMapOptions o;
   o.missions = 1;

@@ -45,7 +45,7 @@ TEST_CASE("id hex round trip and rejects", "[mapstore]") {
   CHECK_FALSE(Id().IsValid());
 }
 
-TEST_CASE("SeedFromFileContent: same content, same seed; other content, other seed") {
+TEST_CASE("SeedFromFileContent: same content, same seed, other content, other seed") {
   const std::string dir = std::filesystem::temp_directory_path() / "vilma_seed_test";
   std::filesystem::create_directories(dir);
   std::ofstream(dir + "/a") << "session zero IMU";

@@ -277,7 +277,7 @@ TEST_CASE("a mission whose sender is gone is finalized as incomplete and loads",
   RequireMapsEqual(Expected(deltas, false), loaded);
 }
 
-TEST_CASE("keepalives keep a silent sender's mission open; they never journal or open a mission",
+TEST_CASE("keepalives keep a silent sender's mission open, they never journal or open a mission",
           "[mapstore_stream]") {
   SyntheticMissionOptions mo;
   mo.vertices = 6;
@@ -348,7 +348,7 @@ TEST_CASE("keepalives keep a silent sender's mission open; they never journal or
   CHECK(server.counters().chunks_malformed == malformed + 1);
 }
 
-TEST_CASE("a map folder appears whole: saved in staging, renamed into place; a crash's staging is removed",
+TEST_CASE("a map folder appears whole: saved in staging, renamed into place, a crash's staging is removed",
           "[mapstore_stream]") {
   SyntheticMissionOptions mo;
   mo.vertices = 5;

@@ -85,7 +85,7 @@ TEST_CASE("post-processing: each unmarked map folder once, markers for ok and fa
   CHECK(p.counters().queued == 0);
 }
 
-TEST_CASE("post-processing: a stopped job has no marker and runs again; a timeout fails it") {
+TEST_CASE("post-processing: a stopped job has no marker and runs again, a timeout fails it") {
   const std::string root = Fresh("stop");
   FakeMapFolder(root + "/m");
   std::ofstream(root + "/script.vilma") << "load ${map}\n";

@@ -123,7 +123,7 @@ TEST_CASE("rendered marker corners land where the rig model projects them", "[si
             << " px, max " << worst << " px over " << count << " corners (cam0 + cam1)\n";
 }
 
-TEST_CASE("renders are deterministic; noise follows the seed", "[sim][renderer]") {
+TEST_CASE("renders are deterministic, noise follows the seed", "[sim][renderer]") {
   World world = vilma::sim::MakePresetWorld("room", 1);
   world.GenerateTextures();
   const vilma::SensorRig rig = vilma::sim::MakeEurocRig(false);

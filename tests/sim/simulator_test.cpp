@@ -23,7 +23,7 @@ SimOptions Short(int session, uint64_t seed) {
 }
 }  // namespace
 
-TEST_CASE("same seed gives identical output; sessions differ", "[sim][simulator]") {
+TEST_CASE("same seed gives identical output, sessions differ", "[sim][simulator]") {
   Simulator a(Short(0, 9)), b(Short(0, 9)), s1(Short(1, 9));
   REQUIRE(a.imu().samples.size() == b.imu().samples.size());
   for (size_t i = 0; i < a.imu().samples.size(); ++i) {

@@ -75,7 +75,7 @@ TEST_CASE("world YAML loads and rejects unknown keys", "[sim][world]") {
   std::remove(path.c_str());
 }
 
-TEST_CASE("DistanceToQuad: inside, beside an edge, beyond a corner; DistanceToWorld the nearest") {
+TEST_CASE("DistanceToQuad: inside, beside an edge, beyond a corner, DistanceToWorld the nearest") {
   vilma::sim::Quad q;  // the unit square in z = 0
   CHECK(vilma::sim::DistanceToQuad(q, Eigen::Vector3d(0.5, 0.5, 0.3)) == Approx(0.3));
   CHECK(vilma::sim::DistanceToQuad(q, Eigen::Vector3d(1.4, 0.5, 0.3)) == Approx(0.5));
