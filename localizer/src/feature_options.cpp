@@ -24,6 +24,9 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("detector", "max_keypoints", o.detector.max_keypoints);
   v("detector", "min_distance_px", o.detector.min_distance_px);
   v("detector", "border_px", o.detector.border_px);
+  v("detector", "subpixel", o.detector.subpixel);
+  v("detector", "subpixel_window_px", o.detector.subpixel_window_px);
+  v("detector", "subpixel_max_shift_px", o.detector.subpixel_max_shift_px);
   v("descriptor", "type", o.descriptor.type);
   v("descriptor", "keypoint_size_px", o.descriptor.keypoint_size_px);
   v("descriptor", "scale_with_level", o.descriptor.scale_with_level);
@@ -61,6 +64,16 @@ std::string DetectorOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("min_distance_px", min_distance_px, 0.0));
   if (min_distance_px > 100.0) return "min_distance_px: expected <= 100";
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("border_px", border_px, 0));
+  if (subpixel != "none" && subpixel != "corner_subpix") {
+    return "subpixel: expected \"none\" or \"corner_subpix\"";
+  }
+  if (subpixel_window_px < 1 || subpixel_window_px > 10) {
+    return "subpixel_window_px: expected 1..10";
+  }
+  if (!(std::isfinite(subpixel_max_shift_px) && subpixel_max_shift_px > 0.0 &&
+        subpixel_max_shift_px <= 10.0)) {
+    return "subpixel_max_shift_px: expected in (0, 10]";
+  }
   return "";
 }
 

@@ -20,6 +20,37 @@ bool BetterKeypoint(const cv::KeyPoint& a, const cv::KeyPoint& b) {
 
 }  // namespace
 
+void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
+                    std::vector<cv::KeyPoint>* keypoints) {
+  if (options.subpixel == "none" || keypoints->empty()) return;
+  std::vector<cv::Point2f> points;
+  points.reserve(keypoints->size());
+  for (const cv::KeyPoint& kp : *keypoints) points.push_back(kp.pt);
+  // cornerSubPix solves sum_i (g_i g_i^T) q = sum_i (g_i g_i^T) p_i over the window's pixels
+  // p_i with gradients g_i (a corner point q makes every g_i orthogonal to p_i - q), Gaussian
+  // weighted, re-centred at q until the step is below 0.01 px. Each keypoint is refined on its
+  // own; the others do not move it.
+  const int w = options.subpixel_window_px;
+  cv::cornerSubPix(image, points, cv::Size(w, w), cv::Size(-1, -1),
+                   cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.01));
+  const float b = static_cast<float>(options.border_px);
+  const double max_shift2 = options.subpixel_max_shift_px * options.subpixel_max_shift_px;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    cv::KeyPoint& kp = (*keypoints)[i];
+    const cv::Point2f& q = points[i];
+    const cv::Point2f d = q - kp.pt;
+    // Not a corner (an edge slides along itself, a blob has no stable point), or outside the
+    // border: keep the detector's position.
+    if (!std::isfinite(q.x) || !std::isfinite(q.y) ||
+        static_cast<double>(d.dot(d)) > max_shift2 || q.x < b || q.y < b ||
+        q.x > static_cast<float>(image.cols - 1) - b ||
+        q.y > static_cast<float>(image.rows - 1) - b) {
+      continue;
+    }
+    kp.pt = q;
+  }
+}
+
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
                                         int height, int grid_cols, int grid_rows,
                                         int max_per_cell, int max_total,
@@ -127,6 +158,7 @@ KeyframeFeatures FeatureExtractor::Extract(const cv::Mat& image) const {
   features.descriptor_type = options_.descriptor.type;
   features.keypoints = SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows,
                                      d.max_per_cell, d.max_keypoints, d.min_distance_px);
+  RefineSubpixel(image, d, &features.keypoints);
   // Score is the detector's; BRISK overwrites the angle with its own orientation and removes
   // keypoints whose (scaled) pattern leaves the image; the order of the others is kept.
   const float base_size = static_cast<float>(options_.descriptor.keypoint_size_px);

@@ -93,6 +93,15 @@ TEST_CASE("keyframe feature options: Validate rejects each bad field", "[feature
   o = KeyframeFeatureOptions();
   o.ransac.method = "eight_point";
   CHECK(o.Validate().rfind("ransac.method", 0) == 0);
+  o = KeyframeFeatureOptions();
+  o.detector.subpixel = "quadratic";
+  CHECK(o.Validate().rfind("detector.subpixel", 0) == 0);
+  o = KeyframeFeatureOptions();
+  o.detector.subpixel_window_px = 0;
+  CHECK(o.Validate().rfind("detector.subpixel_window_px", 0) == 0);
+  o = KeyframeFeatureOptions();
+  o.detector.subpixel_max_shift_px = 0.0;
+  CHECK(o.Validate().rfind("detector.subpixel_max_shift_px", 0) == 0);
 }
 
 }  // namespace

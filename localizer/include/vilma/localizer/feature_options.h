@@ -33,6 +33,17 @@ struct DetectorOptions {
   // one (ORB finds one corner on several levels) [px].
   double min_distance_px = 3.0;
   int border_px = 24;         // no keypoint closer than this to the image border [px]
+  // Sub-pixel refinement of every kept keypoint on the original (level-0) image
+  // (docs/localizer.md, "Sub-pixel keypoints"). "none": the detector's position, an integer
+  // pixel (a multiple of scale_factor^level px): its error stays the same while a feature moves
+  // by less than a pixel between keyframes, so it is correlated along a track
+  // (docs/optimization.md, "Street"). "corner_subpix": cv::cornerSubPix (Foerstner's corner
+  // point: where the image gradients of the window are orthogonal to the offsets from it).
+  std::string subpixel = "none";
+  int subpixel_window_px = 3;  // half size of cornerSubPix's window: (2 w + 1)^2 pixels [px]
+  // A refinement that moves the keypoint farther than this (an edge or a blob, not a corner)
+  // keeps the detector's position [px].
+  double subpixel_max_shift_px = 3.0;
   std::string Validate() const;
 };
 

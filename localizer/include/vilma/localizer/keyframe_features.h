@@ -45,6 +45,12 @@ class FeatureExtractor {
 // Convenience for one-off calls (builds a FeatureExtractor).
 KeyframeFeatures ExtractFeatures(const cv::Mat& image, const KeyframeFeatureOptions& options);
 
+// Moves each keypoint to its sub-pixel corner position on `image` (8-bit, the image the
+// keypoints were detected in) as options.subpixel says; "none" leaves them. A keypoint whose
+// refinement moves farther than subpixel_max_shift_px or leaves the border keeps its position.
+void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
+                    std::vector<cv::KeyPoint>* keypoints);
+
 // Keeps at most `max_per_cell` keypoints per cell of a grid_cols x grid_rows grid over a
 // width x height image, best response first, then at most `max_total` overall (best first);
 // a keypoint closer than `min_distance` [px] to a better one is dropped. The result is sorted
