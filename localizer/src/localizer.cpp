@@ -70,6 +70,7 @@ LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::
     const YamlNode n = root.Child("map");
     Read(n, "max_descriptors_per_landmark", &o.map.max_descriptors_per_landmark);
     Read(n, "min_observations", &o.map.min_observations);
+    Read(n, "calibrate_landmark_covariances", &o.map.calibrate_landmark_covariances);
     n.CheckNoUnknownKeys();
   }
   if (root.Has("projection")) {

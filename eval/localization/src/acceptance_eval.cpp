@@ -124,6 +124,10 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
                 q.rotation_error_deg <= gates.max_rotation_error_deg);
     q.position_sigma_m = LargestSigma(r.covariance_I.topLeftCorner<3, 3>());
     q.rotation_sigma_deg = LargestSigma(r.covariance_I.bottomRightCorner<3, 3>()) * 180.0 / M_PI;
+    if (!q.wrong) {
+      q.residuals = InlierResidualSamples(camera, localizer.map(), keypoints, r,
+                                          localizer.options().ransac.keypoint_sigma_px);
+    }
   }
   return q;
 }
@@ -133,6 +137,9 @@ AcceptanceSummary SummarizeAcceptance(const std::string& name,
   AcceptanceSummary s;
   s.name = name;
   std::vector<double> pos, rot, ms, pose_ms;
+  std::vector<ResidualSample> residuals;
+  double residual_dof = 0.0;
+  int right_poses = 0;
   for (const AcceptanceQuery& q : queries) {
     ms.push_back(q.localize_ms);
     pose_ms.push_back(q.pose_ms);
@@ -153,7 +160,13 @@ AcceptanceSummary SummarizeAcceptance(const std::string& name,
     } else if (q.possible) {
       ++s.accepted_correct;
     }
+    if (!q.wrong && !q.residuals.empty()) {
+      residuals.insert(residuals.end(), q.residuals.begin(), q.residuals.end());
+      residual_dof += 2.0 * static_cast<double>(q.residuals.size()) - 6.0;
+      ++right_poses;
+    }
   }
+  s.noise = FitNoiseComponents(residuals, residual_dof, right_poses);
   s.recall = s.possible > 0 ? static_cast<double>(s.accepted_correct) / s.possible : 0.0;
   s.p50_localize_ms = Median(ms);
   s.p50_pose_ms = Median(pose_ms);
@@ -165,8 +178,9 @@ AcceptanceSummary SummarizeAcceptance(const std::string& name,
 void WriteAcceptanceHeader(std::ostream& out) {
   out << "| data set | queries | possible | accepted | accepted wrong (> 0.3 m or > 2 deg) | "
          "worst wrong [m / deg] | recall (correct / possible) | median error [m / deg] | "
-         "rejections | Localize CPU p50 / max, pose p50 [ms] |\n"
-         "|---|---:|---:|---:|---:|---|---:|---|---|---|\n";
+         "rejections | Localize CPU p50 / max, pose p50 [ms] | right poses: chi2/dof, sigma_kp [px], "
+         "Sigma_l scale |\n"
+         "|---|---:|---:|---:|---:|---|---:|---|---|---|---|\n";
 }
 
 void WriteAcceptanceRow(std::ostream& out, const AcceptanceSummary& s) {
@@ -197,7 +211,19 @@ void WriteAcceptanceRow(std::ostream& out, const AcceptanceSummary& s) {
   }
   if (first) row << "-";
   row << " | " << std::setprecision(1) << s.p50_localize_ms << " / " << s.max_localize_ms << ", "
-      << s.p50_pose_ms << " |\n";
+      << s.p50_pose_ms << " | ";
+  if (s.noise.poses > 0) {
+    row << std::setprecision(2) << s.noise.chi2_per_dof << ", " << s.noise.keypoint_sigma_px
+        << ", ";
+    if (s.noise.landmark_scale >= 0.0) {
+      row << s.noise.landmark_scale;
+    } else {
+      row << "-";
+    }
+  } else {
+    row << "-";
+  }
+  row << " |\n";
   out << row.str();
 }
 

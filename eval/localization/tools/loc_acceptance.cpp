@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <exception>
 #include <filesystem>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 #include <sstream>
@@ -26,6 +27,8 @@
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/eval/localization/kitti_scenarios.h"
 #include "vilma/localizer/localization_map.h"
+#include "vilma/eval/localization/residual_calibration.h"
+#include "vilma/mapping/evaluation/map_evaluation.h"
 
 namespace {
 
@@ -39,6 +42,7 @@ constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2;
 void PrintHelp(std::ostream& out) {
   out << "usage: vilma-loc-acceptance kitti KITTI_DIR [--scenario NAME]... [common options]\n"
          "       vilma-loc-acceptance header   (the table's header only)\n"
+         "       vilma-loc-acceptance landmarks MAP.vlocmap SIM_DATASET\n"
          "       vilma-loc-acceptance asl DATASET MAP.vlocmap [--name NAME] [--every N]\n"
          "                            [--first N] [--camera C] [--rig RIG.yaml]\n"
          "                            [--swap F] [--max-keypoints N] [--box X0,Y0,X1,Y1]\n"
@@ -61,6 +65,14 @@ void PrintHelp(std::ostream& out) {
          "  query features of vilma-estimatord. Query perturbations: --swap F (this share of\n"
          "  the descriptors swapped between keypoints), --max-keypoints N (the N best),\n"
          "  --box X0,Y0,X1,Y1 (keypoints inside this box, fractions of width and height).\n"
+         "\n"
+         "landmarks: the map's landmark covariances against the simulator's true surfaces\n"
+         "  (SIM_DATASET's sim.yaml; map in the world frame, e.g. vilma-locmap-gt's): the\n"
+         "  landmarks' distances d to their surface along its normal n, whitened by\n"
+         "  n^T Sigma_l n: chi2/dof (1 when calibrated), median chi2 (0.455), RMS d and sigma.\n"
+         "  The residual column of the asl/kitti rows (right poses: chi2/dof of the inlier\n"
+         "  residuals, fitted keypoint sigma and landmark-covariance scale) is the same check\n"
+         "  on real data.\n"
          "\n"
          "common options:\n"
          "  --config FILE   localizer options (config/localizer.yaml format; default: built-in)\n"
@@ -129,6 +141,12 @@ Args Parse(const std::vector<std::string>& argv) {
   a.mode = positional[0];
   if (a.mode == "header") {
     if (positional.size() != 1) throw UsageError("header: no arguments");
+    return a;
+  }
+  if (a.mode == "landmarks") {
+    if (positional.size() != 3) throw UsageError("landmarks: expected MAP.vlocmap and SIM_DATASET");
+    a.map = positional[1];
+    a.input = positional[2];
     return a;
   }
   const std::string error = a.perturbation.Validate();
@@ -259,6 +277,22 @@ void RunAsl(const Args& a, const LocalizerOptions& options, std::ostream& out) {
   WriteAcceptanceRow(out, SummarizeAcceptance(name, queries));
 }
 
+void RunLandmarks(const Args& a, std::ostream& out) {
+  sim::World world;
+  if (!mapping::LoadDatasetWorld(a.input, &world)) {
+    throw InputError(FormatInputError(a.input, "sim.yaml", "a dataset made by vilma-sim"));
+  }
+  const LocalizationMap map = LoadLocalizationMap(a.map);
+  if (map.p_G_covariance.empty()) {
+    throw InputError(FormatInputError(a.map, "landmark covariances", "a map that carries them"));
+  }
+  const LandmarkSurfaceCheck c = CheckLandmarksAgainstWorld(map, world);
+  out << std::fixed << std::setprecision(3) << "landmarks " << c.landmarks << " of "
+      << map.num_landmarks() << "  chi2/dof " << c.chi2_per_dof << "  median chi2 "
+      << c.median_chi2 << " (0.455 if calibrated)  rms distance " << std::setprecision(4)
+      << c.rms_distance_m << " m  rms sigma " << c.rms_sigma_m << " m\n";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -280,6 +314,8 @@ int main(int argc, char** argv) {
         a.config.empty() ? LocalizerOptions() : LoadLocalizerOptions(a.config);
     if (a.mode == "header") {
       WriteAcceptanceHeader(std::cout);
+    } else if (a.mode == "landmarks") {
+      RunLandmarks(a, std::cout);
     } else if (a.mode == "kitti") {
       RunKitti(a, options, std::cout);
     } else {

@@ -4,6 +4,7 @@
 #include <unordered_map>
 
 #include "vilma/core/error.h"
+#include "vilma/mapping/locmap/landmark_covariance.h"
 
 namespace vilma::mapping {
 
@@ -28,12 +29,14 @@ LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
     report->missions_used = static_cast<int>(missions.size());
     report->missions_skipped = static_cast<int>(map.mission_ids().size() - missions.size());
   }
-  return BuildLocalizationMapOfMissions(map, missions, options);
+  return BuildLocalizationMapOfMissions(map, missions, options,
+                                        report != nullptr ? &report->keypoint_noise : nullptr);
 }
 
 LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
                                                const std::vector<mapstore::MissionId>& missions,
-                                               const LocalizationMapOptions& options) {
+                                               const LocalizationMapOptions& options,
+                                               KeypointNoiseEstimate* keypoint_noise) {
   const std::string error = options.Validate();
   if (!error.empty()) throw InputError(FormatInputError("LocalizationMapOptions", "", error));
   LocalizationMap out;
@@ -41,6 +44,8 @@ LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
   std::unordered_map<mapstore::VertexId, uint32_t, mapstore::IdHash> observer_of;
   bool bytes_known = false;
   bool any_covariance = false;
+  // Per kept landmark: its valid observations, for the calibration after the loop.
+  std::vector<std::vector<const mapstore::LandmarkObservation*>> kept_observations;
   for (const mapstore::MissionId& mission_id : missions) {
     for (const mapstore::LandmarkId& landmark_id : map.landmark_ids(mission_id)) {
       const mapstore::Landmark& landmark = map.landmark(landmark_id);
@@ -78,6 +83,7 @@ LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
       if (!c.allFinite() || c.diagonal().minCoeff() < 0.0f) c.setZero();
       out.p_G_covariance.push_back(c);
       any_covariance |= !c.isZero(0.0f);
+      kept_observations.push_back(valid);
       const std::size_t first_observer = out.observer_index.size();
       for (const mapstore::LandmarkObservation* obs : valid) {
         auto [it, inserted] =
@@ -105,7 +111,35 @@ LocalizationMap BuildLocalizationMapOfMissions(const mapstore::VIMap& map,
   }
   // No landmark with a covariance (e.g. a map whose landmarks were set, not triangulated):
   // none stored, the localizer takes them as exact.
-  if (!any_covariance) out.p_G_covariance.clear();
+  if (!any_covariance) {
+    out.p_G_covariance.clear();
+    return out;
+  }
+  if (options.calibrate_landmark_covariances) {
+    // The triangulated landmarks (those with a stored covariance) measure the keypoint noise;
+    // their covariances are recomputed with it (landmark_covariance.h).
+    std::vector<std::vector<const mapstore::LandmarkObservation*>> triangulated;
+    std::vector<Eigen::Vector3d> triangulated_p_G;
+    for (std::size_t l = 0; l < out.p_G.size(); ++l) {
+      if (out.p_G_covariance[l].isZero(0.0f)) continue;
+      triangulated.push_back(kept_observations[l]);
+      triangulated_p_G.push_back(out.p_G[l]);
+    }
+    const KeypointNoiseEstimate noise = EstimateKeypointNoise(map, triangulated, triangulated_p_G);
+    if (keypoint_noise != nullptr) *keypoint_noise = noise;
+    if (noise.sigma_px > 0.0) {
+      for (std::size_t l = 0; l < out.p_G.size(); ++l) {
+        if (out.p_G_covariance[l].isZero(0.0f)) continue;
+        Eigen::Matrix3d covariance_G;
+        // A landmark whose geometry gives no covariance (its observations do not project
+        // any more) keeps the stored one.
+        if (TriangulationCovariance_G(map, kept_observations[l], out.p_G[l], noise.sigma_px,
+                                      &covariance_G)) {
+          out.p_G_covariance[l] = covariance_G.cast<float>();
+        }
+      }
+    }
+  }
   return out;
 }
 

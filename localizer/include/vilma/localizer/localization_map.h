@@ -32,6 +32,11 @@ struct LocalizationMapOptions {
   int max_descriptors_per_landmark = 8;
   // Landmarks with fewer observations are dropped (a landmark seen once is unreliable).
   int min_observations = 2;
+  // Landmark covariances calibrated to the map's own keypoint noise (measured from the
+  // residuals of its observations, mapping/locmap/landmark_covariance.h) instead of the
+  // triangulation's assumed pixel sigma (1 px, 3-4x too large in variance; docs/localizer.md,
+  // "Calibrated landmark covariances"). False: the stored covariances as they are.
+  bool calibrate_landmark_covariances = true;
   std::string Validate() const;
 };
 

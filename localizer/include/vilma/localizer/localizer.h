@@ -124,6 +124,7 @@ class Localizer {
                                const uint8_t* descriptors, int* num_raw_matches) const;
 
   const LocalizationMap& map() const { return *map_; }
+  const LocalizerOptions& options() const { return options_; }
   const DescriptorIndex& index() const { return index_; }
   const Eigen::MatrixXf& projection() const { return projection_; }
   double projection_train_ms() const { return projection_train_ms_; }

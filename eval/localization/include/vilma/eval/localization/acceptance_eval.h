@@ -15,6 +15,7 @@
 
 #include "vilma/core/camera.h"
 #include "vilma/core/geometry.h"
+#include "vilma/eval/localization/residual_calibration.h"
 #include "vilma/localizer/localizer.h"
 
 namespace vilma::eval {
@@ -74,6 +75,8 @@ struct AcceptanceQuery {
   PoseQuality quality;               // what the acceptance gates measured
   double localize_ms = 0.0;          // Localize() thread CPU time (match + pose + gates)
   double pose_ms = 0.0;              // of which RANSAC, refinement and gates (CPU)
+  // A right pose's inlier residuals (residual_calibration.h; empty unless accepted and right).
+  std::vector<ResidualSample> residuals;
 };
 
 // Localizes one query (camera C with extrinsics T_I_C) and judges it against T_G_I_gt.
@@ -100,6 +103,8 @@ struct AcceptanceSummary {
   double p50_pose_ms = 0.0;
   double max_localize_ms = 0.0;
   LocalizerStats stats;
+  // The residual noise model on the right accepted poses (chi^2 / dof ~ 1 when calibrated).
+  NoiseCalibration noise;
 };
 
 AcceptanceSummary SummarizeAcceptance(const std::string& name,

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/locmap/landmark_covariance.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping {
@@ -30,10 +31,14 @@ std::vector<mapstore::MissionId> MissionsInCommonFrame(const mapstore::VIMap& ma
 struct LocalizationMapReport {
   int missions_used = 0;
   int missions_skipped = 0;  // not in the common frame (see MissionsInCommonFrame)
+  // The keypoint noise measured from the map (options.calibrate_landmark_covariances).
+  KeypointNoiseEstimate keypoint_noise;
 };
 
 // From the missions of MissionsInCommonFrame(map): landmarks of quality good (unknown and bad
 // are skipped), positioned with their mission's T_G_M. `report` (optional) says which were used.
+// Covariances: options.calibrate_landmark_covariances (landmark_covariance.h), else the stored
+// triangulation covariances rotated into G.
 localizer::LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
                                                 const localizer::LocalizationMapOptions& options = {},
                                                 LocalizationMapReport* report = nullptr);
@@ -42,6 +47,7 @@ localizer::LocalizationMap BuildLocalizationMap(const mapstore::VIMap& map,
 // order: loop closure queries a mission against itself and the missions anchored with it.
 localizer::LocalizationMap BuildLocalizationMapOfMissions(
     const mapstore::VIMap& map, const std::vector<mapstore::MissionId>& missions,
-    const localizer::LocalizationMapOptions& options = {});
+    const localizer::LocalizationMapOptions& options = {},
+    KeypointNoiseEstimate* keypoint_noise = nullptr);
 
 }  // namespace vilma::mapping
