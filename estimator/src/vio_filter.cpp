@@ -32,6 +32,7 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
     }
     stereo_ = true;
     second_camera_ = rig.cameras[static_cast<std::size_t>(options.stereo.camera)];
+    T_C2_C1_ = second_camera_.T_I_C.inverse() * camera_.T_I_C;
   }
   initializer_ = VisualInertialInitializer(camera_, rig.imu.gravity_magnitude, options.init.dynamic);
   // The detector ranks candidates with the tracker's own patch.

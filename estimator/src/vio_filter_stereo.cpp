@@ -9,13 +9,6 @@
 
 namespace vilma::estimator {
 
-Transformation VioFilter::T_C2_C1(const FilterState& x) const {
-  // C1's extrinsics from the state (refined online with estimate_extrinsics), C2's from the
-  // rig. The C2 measurement's dependence on the C1 extrinsics is not modelled (no Jacobian
-  // columns for them): with fixed extrinsics (the default) it is exact.
-  return second_camera_.T_I_C.inverse() * Transformation(x.q_I_C, x.p_I_C);
-}
-
 bool VioFilter::UpdateFeatureInSecond(int slot) {
   const std::size_t i = static_cast<std::size_t>(slot);
   const int k = FeatureIndex(slot);
@@ -40,7 +33,7 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
     const FeatureState& f = x.features[i];
     const Eigen::Vector3d mu_dot = BearingRate(x, slot);
     const Eigen::Vector3d mu_t = (f.mu_C + mu_dot * x.td).normalized();
-    const Transformation T21 = T_C2_C1(x);
+    const Transformation& T21 = T_C2_C1_;
     if (!PredictInOtherCamera(camera2, T21, mu_t, f.rho, pr)) return false;
     if (J != nullptr) {
       const Eigen::Matrix<double, 2, 3> J_mu = pr->J_pixel_m * T21.rotationMatrix();
@@ -152,7 +145,7 @@ void VioFilter::InitializeDepthFromStereo(int slot) {
   mo.photometric = options_.features.photometric;
   FeatureState& f = x_.features[i];
   const StereoMatch match = MatchInOtherCamera(tracks_[i].patch, tracks_[i].D, pyramid2_,
-                                               second_camera_.camera, T_C2_C1(x_), f.mu_C, mo);
+                                               second_camera_.camera, T_C2_C1_, f.mu_C, mo);
   if (!match.found) {
     ++stats_.stereo_match_failures;
     return;

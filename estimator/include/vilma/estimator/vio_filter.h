@@ -134,7 +134,6 @@ class VioFilter {
   // and the initial inverse distance of a new feature from a stereo match.
   bool UpdateFeatureInSecond(int slot);
   void InitializeDepthFromStereo(int slot);
-  Transformation T_C2_C1(const FilterState& x) const;
   void AddFeatures();
   void RemoveFeature(int slot);
   std::string CheckHealth() const;
@@ -150,6 +149,9 @@ class VioFilter {
   CameraConfig camera_;
   bool stereo_ = false;           // options.stereo.enabled
   CameraConfig second_camera_;    // stereo: the second camera (extrinsics fixed from the rig)
+  // stereo: C1 in C2 from the rig, T_I_C2^-1 T_I_C1: a calibrated stereo pair is rigid, so the
+  // C2 measurement does not depend on the (possibly estimated) T_I_C1 of the state.
+  Transformation T_C2_C1_;
   ImagePyramid pyramid2_;         // stereo: the second image of the current frame
   bool have_second_image_ = false;
   FilterOptions options_;
