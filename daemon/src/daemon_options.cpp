@@ -6,6 +6,7 @@
 
 #include "vilma/core/error.h"
 #include "vilma/core/validate.h"
+#include "vilma/estimator/vio_pipeline.h"
 
 namespace vilma::daemon {
 namespace {
@@ -116,6 +117,12 @@ std::string DaemonOptions::Validate() const {
   if (!(std::isfinite(camera_silence_s) && camera_silence_s > 0.0)) {
     return "camera_silence_s: expected > 0";
   }
+  {
+    estimator::TimeJumpOptions jump;
+    jump.resume_max_gap_s = time_jump_resume_max_gap_s;
+    const std::string e = jump.Validate();
+    if (!e.empty()) return "time_jump_" + e;
+  }
   VILMA_RETURN_IF_ERROR(channels.Validate());
   if (StereoEnabled()) {
     const int second = estimator.stereo.camera;
@@ -146,6 +153,7 @@ DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   o.stereo = root.Get<bool>("stereo");
   o.status_period_s = root.Get<double>("status_period_s");
   o.camera_silence_s = root.Get<double>("camera_silence_s");
+  o.time_jump_resume_max_gap_s = root.Get<double>("time_jump_resume_max_gap_s");
 
   // estimator: a file name ("" = defaults) or the options inline.
   const YAML::Node estimator = root.raw()["estimator"];
@@ -281,6 +289,7 @@ std::string DaemonOptionsToYaml(const DaemonOptions& o) {
       << "stereo: " << (o.StereoEnabled() ? "true" : "false") << "\n"
       << "status_period_s: " << o.status_period_s << "\n"
       << "camera_silence_s: " << o.camera_silence_s << "\n"
+      << "time_jump_resume_max_gap_s: " << o.time_jump_resume_max_gap_s << "\n"
       << "channels:\n  cameras: [";
   for (std::size_t i = 0; i < o.channels.cameras.size(); ++i) {
     out << (i ? ", " : "") << o.channels.cameras[i];

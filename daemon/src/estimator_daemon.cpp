@@ -78,6 +78,7 @@ EstimatorDaemon::Impl::Impl(const DaemonOptions& o, const SensorRig& r)
   fo.queue_capacity = options.queues.filter_capacity;
   fo.fault_stall_after = options.fault_stall_filter_after;
   fo.fault_reset_at = options.fault_reset_filter_at;
+  fo.time_jump.resume_max_gap_s = options.time_jump_resume_max_gap_s;
   filter = std::make_unique<FilterStage>(fo, rig, &pipeline, &publish->queue());
   SyncStageOptions so;
   so.sync = options.sync;

@@ -28,7 +28,7 @@ FilterStage::FilterStage(const FilterStageOptions& options, const SensorRig& rig
       p_(*pipeline),
       queue_(static_cast<std::size_t>(options.queue_capacity)),
       output_(*output),
-      vio_(rig, options.vio_camera, options.estimator) {
+      vio_(rig, options.vio_camera, options.estimator, options.time_jump) {
   int cameras = options.vio_camera + 1;
   if (options.estimator.stereo.enabled) cameras = std::max(cameras, options.estimator.stereo.camera + 1);
   frame_t_cam_ns_.assign(static_cast<std::size_t>(cameras), 0);
@@ -156,8 +156,17 @@ void FilterStage::Run() {
         vio_.AddImu(item.imu);
         if (map_) map_->PushImu(item.imu);
       } else if (item.kind == FilterItem::Kind::kRestart) {
-        // A time jump: a new filter, a new M frame (a new mission, T_G_M unknown again).
-        vio_.Restart();
+        // A time jump: a new filter, or the pre-jump filter resumed when the stamps came back
+        // onto its timeline (item.imu.t_ns: the first stamp on the new time base). Either way
+        // the M frame of the frames just before ends (a new mission, T_G_M unknown again).
+        if (vio_.OnTimeJump(item.imu.t_ns)) {
+          p_.log(8, "timestamps back on the pre-jump timeline: the pre-jump filter resumes");
+        } else {
+          p_.log(8, "timestamp jump: the filter restarts");
+        }
+        p_.counters.Set(kTimeJumpRestarts, vio_.counters().restarts);
+        p_.counters.Set(kTimeJumpResumes, vio_.counters().resumes);
+        p_.counters.Set(kTimeJumpImuRestamped, vio_.counters().imu_restamped);
         if (map_) map_->EndMission();
         if (loc_) loc_->NewMFrame();
       } else {

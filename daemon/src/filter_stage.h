@@ -27,6 +27,7 @@ struct FilterStageOptions {
   int queue_capacity = 4096;       // sync -> filter [items]
   int64_t fault_stall_after = -1;  // test: the filter thread stalls after N frames
   int64_t fault_reset_at = -1;     // test: the filter resets at its N-th frame
+  estimator::TimeJumpOptions time_jump;  // restart or resume at a timestamp jump
 };
 
 class FilterStage {

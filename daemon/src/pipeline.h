@@ -117,7 +117,7 @@ struct InputItem {  // input -> sync
 struct FilterItem {  // sync -> filter
   enum class Kind : uint8_t { kImu, kFrame, kRestart };
   Kind kind = Kind::kImu;
-  ImuSample imu;
+  ImuSample imu;  // kRestart: imu.t_ns is the first IMU stamp on the new time base
   int64_t t_cam_ns = 0;
   int64_t recv_steady_ns = 0;
   int64_t recv_latency_us = 0;

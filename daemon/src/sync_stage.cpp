@@ -45,12 +45,13 @@ void SyncStage::Forward(SyncedFrame& f) {
   const int vio = options_.vio_camera;
   if (f.time_jump_before) {
     // The filter cannot go back in time: it restarts (the synchronizer cleared its history).
+    // The filter stage decides: restart, or resume the pre-jump filter (it needs the first
+    // stamp on the new time base for that).
     FilterItem restart;
     restart.kind = FilterItem::Kind::kRestart;
+    restart.imu.t_ns = f.imu.empty() ? f.t_imu_ns : f.imu.front().t_ns;
     PushFilter(restart);
-    p_.counters.Add(kTimeJumpRestarts);
     last_forwarded_imu_ns_ = std::numeric_limits<int64_t>::min();
-    p_.log(8, "timestamp jump: the filter restarts");
   }
   FilterItem out;
   out.kind = FilterItem::Kind::kImu;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <limits>
 
 #include "vilma/core/error.h"
@@ -10,23 +11,109 @@ namespace vilma::estimator {
 
 // ---------------------------------------------------------------- filter stage
 
-VioFilterStage::VioFilterStage(const SensorRig& rig, int vio_camera, const FilterOptions& options)
-    : rig_(rig), vio_camera_(vio_camera), options_(options) {
+std::string TimeJumpOptions::Validate() const {
+  // Above ~5 s the bridged propagation is dead reckoning without IMU: not worth resuming.
+  if (!(std::isfinite(resume_max_gap_s) && resume_max_gap_s >= 0.0 && resume_max_gap_s <= 5.0)) {
+    return "resume_max_gap_s: expected 0 .. 5 [s]";
+  }
+  return "";
+}
+
+VioFilterStage::VioFilterStage(const SensorRig& rig, int vio_camera, const FilterOptions& options,
+                               const TimeJumpOptions& jump)
+    : rig_(rig), vio_camera_(vio_camera), options_(options), jump_(jump) {
+  const std::string e = jump_.Validate();
+  if (!e.empty()) throw InputError(FormatInputError("time jump options", "", e));
   filter_ = std::make_unique<VioFilter>(rig_, vio_camera_, options_);  // validates
   time_offset_ns_ = rig_.cameras[static_cast<std::size_t>(vio_camera_)].time_offset_ns;
+  // Samples of a window up to resume_max_gap_s long, with 50 % margin for rate error.
+  max_jumped_imu_ = static_cast<std::size_t>(1.5 * jump_.resume_max_gap_s * rig_.imu.rate_hz) + 16;
 }
 
 void VioFilterStage::AddImu(const ImuSample& sample) {
   filter_->AddImu(sample);
   last_omega_m_ = sample.omega_I;
+  if (!have_imu_ || sample.t_ns > last_imu_ns_) last_imu_ns_ = sample.t_ns;
+  have_imu_ = true;
+  if (snapshot_ != nullptr && !jumped_imu_overflow_) {
+    if (jumped_imu_.size() < max_jumped_imu_) {
+      jumped_imu_.push_back(sample);
+    } else {
+      jumped_imu_overflow_ = true;  // longer than any gap a resume bridges
+      jumped_imu_.clear();
+    }
+  }
 }
 
-void VioFilterStage::Restart() {
-  resets_before_restart_ += filter_->stats().resets;
-  filter_ = std::make_unique<VioFilter>(rig_, vio_camera_, options_);
-  ever_initialized_ = false;
+int64_t VioFilterStage::RestampJumpedImu(int64_t t_next_ns) {
+  // The jumped stretch: n samples b_1..b_n at the IMU's period dt (stamps + an unknown offset
+  // D). If they are the samples missing from the resumed timeline between its last sample a
+  // and the return's first c, they fit: a < b_1 - D, b_n - D < c. The synchronizer drops
+  // samples it had not handed out at each jump (up to about a frame period at both ends), so
+  // the stretch is shorter than the gap by slack = (c - a) - (n + 1) dt >= 0 and its place in
+  // the gap is known only within slack: it is centred, b_1 - D = a + dt + slack / 2 (a time
+  // error of at most slack / 2). It is not used when it does not fit (slack < -dt / 2), when
+  // its own spacing is not the IMU's (a stretch with gaps or another rate: span off by more
+  // than 5 %), or when slack > 0.25 s (too little of the gap would be covered to be sure).
+  const std::size_t n = jumped_imu_.size();
+  if (jumped_imu_overflow_ || n < 2) return 0;
+  const double dt_ns = 1e9 / rig_.imu.rate_hz;
+  const double a = static_cast<double>(snapshot_last_imu_ns_);
+  const double c = static_cast<double>(t_next_ns);
+  const double span = static_cast<double>(jumped_imu_.back().t_ns - jumped_imu_.front().t_ns);
+  const double expected_span = static_cast<double>(n - 1) * dt_ns;
+  if (std::abs(span - expected_span) > 0.05 * expected_span + dt_ns) return 0;
+  const double slack = (c - a) - span - 2.0 * dt_ns;
+  if (slack < -0.5 * dt_ns || slack > 0.25e9) return 0;
+  const double first = a + dt_ns + std::max(0.0, slack) * 0.5;
+  const int64_t offset_ns = jumped_imu_.front().t_ns - static_cast<int64_t>(std::llround(first));
+  int64_t given = 0;
+  for (ImuSample s : jumped_imu_) {
+    s.t_ns -= offset_ns;
+    if (s.t_ns <= snapshot_last_imu_ns_ || s.t_ns >= t_next_ns) continue;
+    filter_->AddImu(s);
+    last_omega_m_ = s.omega_I;
+    ++given;
+  }
+  return given;
+}
+
+bool VioFilterStage::OnTimeJump(int64_t t_next_ns) {
+  const int64_t max_gap_ns = static_cast<int64_t>(jump_.resume_max_gap_s * 1e9);
   restart_pending_ = true;
+  if (snapshot_ != nullptr && t_next_ns > snapshot_last_imu_ns_ &&
+      t_next_ns - snapshot_last_imu_ns_ <= max_gap_ns) {
+    // Back on the snapshot's timeline: the samples between its last one and t_next_ns came on
+    // the jumped time base; re-stamped into the gap when they fit, else the filter takes the
+    // gap as an IMU gap (propagation interpolates across it).
+    resets_discarded_ += filter_->stats().resets;
+    filter_ = std::move(snapshot_);
+    counters_.imu_restamped += RestampJumpedImu(t_next_ns);
+    jumped_imu_.clear();
+    jumped_imu_overflow_ = false;
+    last_imu_ns_ = snapshot_last_imu_ns_;
+    have_imu_ = true;
+    ever_initialized_ = true;
+    resume_pending_ = true;
+    ++counters_.resumes;
+    return true;
+  }
+  if (filter_->initialized() && have_imu_ && max_gap_ns > 0) {
+    if (snapshot_ != nullptr) resets_discarded_ += snapshot_->stats().resets;
+    snapshot_ = std::move(filter_);
+    snapshot_last_imu_ns_ = last_imu_ns_;
+  } else {
+    // An older snapshot stays; the samples of this filter are not the ones missing from
+    // its timeline (a jump came between them).
+    resets_discarded_ += filter_->stats().resets;
+  }
+  jumped_imu_.clear();
+  jumped_imu_overflow_ = false;
+  filter_ = std::make_unique<VioFilter>(rig_, vio_camera_, options_);
+  have_imu_ = false;
+  ever_initialized_ = false;
   ++counters_.restarts;
+  return false;
 }
 
 VioFrameOutput VioFilterStage::AddFrame(int64_t t_cam_ns, const cv::Mat& image) {
@@ -45,7 +132,9 @@ VioFrameOutput VioFilterStage::AddFrame(const std::vector<int64_t>& t_cam_ns,
   }
   VioFrameOutput out;
   out.restarted = restart_pending_;
+  out.resumed = resume_pending_;
   restart_pending_ = false;
+  resume_pending_ = false;
   const cv::Mat* second = nullptr;
   if (options_.stereo.enabled) {
     const std::size_t s = static_cast<std::size_t>(options_.stereo.camera);
@@ -61,7 +150,8 @@ VioFrameOutput VioFilterStage::AddFrame(const std::vector<int64_t>& t_cam_ns,
   out.filter_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   ++counters_.frames;
-  counters_.resets = resets_before_restart_ + filter_->stats().resets;
+  counters_.resets = resets_discarded_ + filter_->stats().resets +
+                     (snapshot_ != nullptr ? snapshot_->stats().resets : 0);
 
   const FrameResult& r = out.filter;
   VioPose& pose = out.pose;
@@ -122,6 +212,8 @@ std::string VioPipelineOptions::Validate(int rig_cameras) const {
   }
   const std::string e = sync.Validate();
   if (!e.empty()) return "sync." + e;
+  const std::string j = time_jump.Validate();
+  if (!j.empty()) return "time_jump." + j;
   return "";
 }
 
@@ -152,7 +244,7 @@ VioPipeline::VioPipeline(const SensorRig& rig, const VioPipelineOptions& options
     : options_(options),
       rig_cameras_(static_cast<int>(rig.cameras.size())),
       sync_(options.sync, SyncOffsets(rig, options)),
-      stage_(rig, options.vio_camera, options.filter),
+      stage_(rig, options.vio_camera, options.filter, options.time_jump),
       last_forwarded_imu_ns_(std::numeric_limits<int64_t>::min()) {
   sync_index_.assign(static_cast<std::size_t>(rig_cameras_), -1);
   const std::vector<int> cameras = SyncedCameras(options_, rig_cameras_);
@@ -175,7 +267,7 @@ bool VioPipeline::NextOutput(VioFrameOutput* output) {
     // As the daemon's sync stage forwards a frame: a time jump restarts the filter (it cannot
     // go back in time); consecutive frames share their boundary IMU sample, each is given once.
     if (frame_.time_jump_before) {
-      stage_.Restart();
+      stage_.OnTimeJump(frame_.imu.empty() ? frame_.t_imu_ns : frame_.imu.front().t_ns);
       last_forwarded_imu_ns_ = std::numeric_limits<int64_t>::min();
     }
     for (const ImuSample& s : frame_.imu) {

@@ -33,7 +33,9 @@ namespace vilma::daemon {
   X(kFramesWithoutVioCamera, "frames_without_vio_camera")                                                              \
   X(kFramesWithoutStereo, "frames_without_stereo") /* stereo: frame without the second image, updated mono */         \
   X(kCameraSilences, "camera_silences")                                                                                \
-  X(kTimeJumpRestarts, "time_jump_restarts")                                                                           \
+  X(kTimeJumpRestarts, "time_jump_restarts") /* timestamp jumps that started a new filter */                          \
+  X(kTimeJumpResumes, "time_jump_resumes") /* jumps back onto the pre-jump timeline: that filter resumed */        \
+  X(kTimeJumpImuRestamped, "time_jump_imu_restamped") /* jumped IMU samples re-stamped into a resume's gap */       \
   X(kFramesFiltered, "frames_filtered")                                                                                \
   X(kFilterResets, "filter_resets")                                                                                    \
   X(kPosesPublished, "poses_published")                                                                                \

@@ -133,6 +133,10 @@ struct DaemonOptions {
   // A camera with no image for this long [s of IMU time] while the IMU runs is reported
   // as silent (camera_silences), once per silence.
   double camera_silence_s = 0.5;
+  // A timestamp jump whose stamps come back onto the pre-jump timeline within this long [s]
+  // of its last IMU sample resumes the pre-jump filter instead of restarting (0: never;
+  // docs/daemon.md "Clock jumps"). estimator::TimeJumpOptions::resume_max_gap_s.
+  double time_jump_resume_max_gap_s = 2.0;
   // Filter options: a YAML file like config/estimator.yaml (relative paths are relative to
   // the daemon config file), "" for the built-in defaults, or the options inline as a map.
   std::string estimator_file;

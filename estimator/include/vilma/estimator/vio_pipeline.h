@@ -58,8 +58,11 @@ struct VioFrameOutput {
   VioPose pose;
   FrameResult filter;             // the filter's per-frame result (counts, reset and reason)
   // The filter restarted before this frame (a time jump): a new M frame begins here, as after
-  // a reset (filter.reset). Consumers end their mission / T_G_M estimate on either.
+  // a reset (filter.reset). Consumers end their mission / T_G_M estimate on either. Also set
+  // when a jump resumed the pre-jump filter (`resumed`): its M is not the one of the frames
+  // just before (those of the filter that ran on the jumped stamps).
   bool restarted = false;
+  bool resumed = false;  // the jump resumed the filter an earlier jump had left (see OnTimeJump)
   double filter_ms = 0.0;         // wall time of the filter on this frame [ms]
   // VioPipeline only (the stage leaves them empty): the synchronized frame, per rig camera a
   // stamp (0) and an image (empty) when the camera is not in it, and the IMU samples given to
@@ -73,10 +76,22 @@ struct VioFrameOutput {
 // Counters over the whole run, across restarts.
 struct VioStageCounters {
   int64_t frames = 0;                    // frames given to the filter
-  int64_t restarts = 0;                  // Restart() calls (time jumps)
+  int64_t restarts = 0;                  // time jumps that restarted the filter
+  int64_t resumes = 0;                   // time jumps that resumed the pre-jump filter
+  int64_t imu_restamped = 0;             // jumped IMU samples re-stamped into a resume's gap
   int64_t resets = 0;                    // filter resets (health checks), all filters summed
   int64_t frames_without_vio_camera = 0; // synchronized frames without the VIO camera: skipped
   int64_t frames_without_stereo = 0;     // stereo on, frame without the second camera: mono
+};
+
+// What a timestamp jump does to the filter (docs/daemon.md, "Clock jumps").
+struct TimeJumpOptions {
+  // A jump whose new stamps continue the timeline of the filter that an earlier jump left,
+  // at most this long [s] after that filter's last IMU sample, resumes that filter (the gap is
+  // bridged as an IMU gap: propagation interpolates across it) instead of starting a new one.
+  // 0: every jump restarts.
+  double resume_max_gap_s = 2.0;
+  std::string Validate() const;  // empty if valid, else "field: expectation"
 };
 
 class VioFilterStage {
@@ -84,7 +99,8 @@ class VioFilterStage {
   // `vio_camera`: the filter's camera (the anchor of its features). With
   // options.stereo.enabled, options.stereo.camera is the second camera. Throws InputError for
   // invalid options or rig.
-  VioFilterStage(const SensorRig& rig, int vio_camera, const FilterOptions& options);
+  VioFilterStage(const SensorRig& rig, int vio_camera, const FilterOptions& options,
+                 const TimeJumpOptions& jump = TimeJumpOptions());
 
   // IMU samples in time order.
   void AddImu(const ImuSample& sample);
@@ -94,9 +110,24 @@ class VioFilterStage {
   VioFrameOutput AddFrame(const std::vector<int64_t>& t_cam_ns, const std::vector<cv::Mat>& images);
   // Mono convenience: only the VIO camera's image.
   VioFrameOutput AddFrame(int64_t t_cam_ns, const cv::Mat& image);
-  // A new filter (the old one's resets stay counted): after a time jump. The next output has
-  // restarted = true and status INITIALIZING until the new filter starts.
-  void Restart();
+  // A timestamp jump (the synchronizer cleared its history); `t_next_ns` is the first IMU
+  // stamp on the new time base. Either
+  // - resume: the filter that an earlier jump left (kept as a snapshot) ran until t_s, and
+  //   t_s < t_next_ns <= t_s + jump.resume_max_gap_s: the stamps came back onto its timeline.
+  //   It becomes the filter again, the one that ran on the jumped stamps is discarded; the
+  //   next output has restarted = resumed = true and status TRACKING if the filter survives
+  //   the gap. Returns true. The gap (t_s, t_next_ns) is bridged with the IMU samples that
+  //   came on the jumped stamps when they fit into it (see RestampJumpedImu): they are the
+  //   missing samples with wrong stamps. Otherwise propagation interpolates across it.
+  // - restart: a new filter; the current one is kept as the snapshot if it is initialized
+  //   (otherwise an older snapshot stays). The next output has restarted = true and status
+  //   INITIALIZING until the new filter starts. Returns false.
+  bool OnTimeJump(int64_t t_next_ns);
+  // The jumped samples re-stamped into the gap (t_s, t_next_ns) given to the resumed filter;
+  // returns how many (0: they do not fit, the gap is interpolated).
+  int64_t RestampJumpedImu(int64_t t_next_ns);
+  // Only one snapshot is kept (the newest initialized filter a jump left): bounded memory.
+  bool has_snapshot() const { return snapshot_ != nullptr; }
   // See VioFilter::StartFrom / RequestReset (applied to the current filter).
   void StartFrom(const GivenState& state) { filter_->StartFrom(state); }
   void RequestReset(const std::string& reason) { filter_->RequestReset(reason); }
@@ -113,11 +144,24 @@ class VioFilterStage {
   int vio_camera_;
   FilterOptions options_;
   int64_t time_offset_ns_ = 0;
+  TimeJumpOptions jump_;
   std::unique_ptr<VioFilter> filter_;
+  // The filter a jump left (initialized), its last IMU stamp and whether it had been
+  // initialized; resumed when the stamps come back onto its timeline.
+  std::unique_ptr<VioFilter> snapshot_;
+  int64_t snapshot_last_imu_ns_ = 0;
+  // IMU samples given to filter_ since the jump that made the snapshot (the candidates for
+  // the gap at a resume); at most max_jumped_imu_ (then the window is too long to resume).
+  std::vector<ImuSample> jumped_imu_;
+  std::size_t max_jumped_imu_ = 0;
+  bool jumped_imu_overflow_ = false;
+  int64_t last_imu_ns_ = 0;        // newest sample given to filter_
+  bool have_imu_ = false;          // last_imu_ns_ is valid
   VioStageCounters counters_;
-  int64_t resets_before_restart_ = 0;
+  int64_t resets_discarded_ = 0;   // resets of the filters discarded (restarts, resumes)
   bool ever_initialized_ = false;  // since the last restart: LOST vs INITIALIZING
   bool restart_pending_ = false;
+  bool resume_pending_ = false;
   Eigen::Vector3d last_omega_m_ = Eigen::Vector3d::Zero();  // last gyro sample [rad/s]
 };
 
@@ -129,6 +173,7 @@ struct VioPipelineOptions {
   std::vector<int> cameras;
   FilterOptions filter;
   SensorSyncOptions sync;
+  TimeJumpOptions time_jump;
   std::string Validate(int rig_cameras) const;  // empty if valid, else "field: expectation"
 };
 
