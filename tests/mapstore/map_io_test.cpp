@@ -96,6 +96,24 @@ TEST_CASE("special doubles survive bit-exactly", "[mapstore]") {
   RequireMapsEqual(map, LoadMap(dir));
 }
 
+TEST_CASE("a mission name of any bytes (not UTF-8) saves and loads back", "[mapstore]") {
+  // Mission names come from the network (mapstored) and from users; proto3 refuses to parse a
+  // `string` field that is not UTF-8, so such a name once made a map that saved but never loaded
+  // (found by fuzz_mission_stream).
+  SyntheticMapOptions o;
+  o.missions = 2;
+  o.vertices_per_mission = 3;
+  VIMap map = MakeSyntheticMap(o);
+  map.mission(map.mission_ids()[0]).name = std::string("bad\xff\xfe name\xc3", 13);
+  map.mission(map.mission_ids()[1]).name = std::string("nul\0inside", 11);
+  const std::string dir = FreshDir("non_utf8_name");
+  SaveMap(map, dir);
+  const VIMap loaded = LoadMap(dir);
+  RequireMapsEqual(map, loaded);
+  CHECK(loaded.mission(loaded.mission_ids()[0]).name == map.mission(map.mission_ids()[0]).name);
+  CHECK(loaded.mission(loaded.mission_ids()[1]).name.size() == 11);
+}
+
 TEST_CASE("saving is deterministic: same map, identical files", "[mapstore]") {
   SyntheticMapOptions o;
   o.images = true;
