@@ -53,6 +53,7 @@ for name in "${names[@]}"; do
   set_name="${name%+stereo}"; set_name="${set_name%+given}"
   if [[ "$name" == euroc_* ]]; then dir="$shared_dir/$set_name"; else dir="$datasets_dir/$set_name"; fi
   if [[ ! -d "$dir/mav0" ]]; then missing+=("$name ($dir)"); continue; fi
+  if [[ "$name" == *+stereo && ! -d "$dir/mav0/cam1" ]]; then missing+=("$name (no cam1)"); continue; fi
   gt="$dir/mav0/state_groundtruth_estimate0/data.csv"
   start_args=()
   [[ "$name" == *+given* ]] && start_args=(--initial-state "$gt")
