@@ -21,7 +21,8 @@ import sys
 VALID = (2, 3)  # pose_t TRACKING, LOCALIZED
 POSE_STATUS = {0: "INVALID", 1: "INITIALIZING", 2: "TRACKING", 3: "LOCALIZED", 4: "LOST"}
 NODE_STATE = {0: "STARTING", 1: "OK", 2: "DEGRADED", 3: "ERROR", 4: "STOPPING"}
-COUNTERS = ["camera_silences", "time_jump_restarts", "filter_resets", "sync_imu_gaps",
+COUNTERS = ["camera_silences", "time_jump_restarts", "time_jump_resumes",
+            "time_jump_imu_restamped", "filter_resets", "sync_imu_gaps",
             "sync_imu_duplicates", "sync_imu_out_of_order", "sync_imu_time_jumps",
             "sync_imu_stale", "sync_images_duplicate", "sync_images_out_of_order",
             "sync_images_late", "sync_image_time_jumps", "sync_images_stale",
@@ -130,7 +131,12 @@ def main():
             first_diff = distance(matched[0]["position"], clean_poses[matched[0]["utime"]]["position"])
             end_diff = distance(matched[-1]["position"], clean_poses[matched[-1]["utime"]]["position"])
         diff = "-" if first_diff is None else f"{first_diff:.3f} / {end_diff:.3f}"
-        if any(m.startswith(("time_jump_restarts", "filter_resets")) for m in moved):
+        # Positions after the fault are in the clean run's frame M unless the filter reset or a
+        # jump restarted it without a later resume of the pre-jump filter.
+        def moved_by(c):
+            return sum(int(m.split(" +")[1]) for m in moved if m.startswith(c + " "))
+        if (moved_by("filter_resets") > 0 or
+                moved_by("time_jump_restarts") > moved_by("time_jump_resumes")):
             diff = "restarted: a new frame M"  # positions of another odometry frame
         msg = "; ".join(messages[:3]) + (" ..." if len(messages) > 3 else "")
         print(f"| {name} (`{fault}`) | {'never' if recovery_ms is None else f'{recovery_ms:.0f}'} "
