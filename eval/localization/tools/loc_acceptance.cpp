@@ -137,7 +137,7 @@ Args Parse(const std::vector<std::string>& argv) {
     }
   }
   if (a.help) return a;
-  if (positional.empty()) throw UsageError("expected 'kitti', 'asl' or 'header'");
+  if (positional.empty()) throw UsageError("expected 'kitti', 'asl', 'landmarks' or 'header'");
   a.mode = positional[0];
   if (a.mode == "header") {
     if (positional.size() != 1) throw UsageError("header: no arguments");
@@ -164,7 +164,7 @@ Args Parse(const std::vector<std::string>& argv) {
     a.input = positional[1];
     a.map = positional[2];
   } else {
-    throw UsageError("expected 'kitti', 'asl' or 'header', got '" + a.mode + "'");
+    throw UsageError("expected 'kitti', 'asl', 'landmarks' or 'header', got '" + a.mode + "'");
   }
   return a;
 }

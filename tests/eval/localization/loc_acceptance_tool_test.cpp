@@ -43,6 +43,10 @@ TEST_CASE("vilma-loc-acceptance: usage and input errors", "[localization]") {
   CHECK(Run(kTool + " asl a b --swap x", &out) == 2);
   CHECK(Run(kTool + " kitti a --swap 0.5", &out) == 2);  // the scenarios define their own
   CHECK(Run(kTool + " asl /nonexistent-dataset x.vlocmap", &out) == 1);
+  // landmarks: two arguments; a folder without sim.yaml is named.
+  CHECK(Run(kTool + " landmarks only-one.vlocmap", &out) == 2);
+  CHECK(Run(kTool + " landmarks x.vlocmap /nonexistent-dataset", &out) == 1);
+  CHECK_THAT(out, Catch::Contains("sim.yaml"));
   CHECK_THAT(out, Catch::Contains("/nonexistent-dataset"));
   CHECK(Run(kTool + " header", &out) == 0);
   CHECK_THAT(out, Catch::StartsWith("| data set | queries | possible | accepted |"));
