@@ -216,6 +216,13 @@ void MapStage::ReleaseAcknowledged() {
 }
 
 // Acks (the senders' handlers run in this thread: each takes the acks of its mission),
+namespace {
+// After mapstored acknowledged the END as durable, how long the ending stream still waits for
+// COMPLETE (the map folder written) [ns]: a short mission's folder follows within
+// milliseconds, an hour's takes minutes, which a stopping robot should not wait for.
+constexpr int64_t kCompleteGraceNs = 1'000'000'000;
+}  // namespace
+
 // retransmissions, queued deltas.
 void MapStage::ServiceStream(int timeout_ms) {
   if (transport_->Handle(timeout_ms) > 0) {
@@ -237,9 +244,18 @@ void MapStage::ServiceStream(int timeout_ms) {
     s.Poll();
     waiting += e.backlog.size();
     const bool timed_out = now >= e.deadline_ns;
-    if (s.finished() || timed_out) {
+    // The END journaled and fsynced is what the robot needs before it stops: the mission is
+    // safe in mapstored, which writes the map folder next (minutes for an hour of mapping).
+    // COMPLETE is awaited kCompleteGraceNs more (a short mission's folder is written at once).
+    if (s.end_durable() && e.durable_ns < 0) e.durable_ns = now;
+    const bool durable_done = e.durable_ns >= 0 && now - e.durable_ns >= kCompleteGraceNs;
+    if (s.finished() || durable_done || timed_out) {
       if (s.finished()) {
         ++streams_finished_;
+      } else if (s.end_durable()) {
+        ++streams_durable_;
+        p_.log(14, "map: mission %s journaled by mapstored (END acknowledged), map folder pending",
+               s.mission_id().Hex().c_str());
       } else {
         ++streams_unfinished_;
         std::fprintf(stderr,
@@ -388,14 +404,19 @@ void MapStage::EndOfRun() {
   report << st.vertices << " vertices, " << st.landmarks << " landmarks (" << st.landmarks_good
          << " good), finish " << static_cast<int>(finish_ms_) << " ms";
   if (transport_) {
-    stream_finished_ = streams_unfinished_ == 0 && streams_finished_ == missions_kept_;
+    stream_finished_ = streams_unfinished_ == 0 &&
+                       streams_finished_ + streams_durable_ == missions_kept_;
     const mapstore::MissionStreamSenderCounters& c = stream_counters_done_;
     report << "; stream: " << c.sent << " chunks, " << c.acked << " acked, " << c.retransmitted
            << " retransmitted, ";
     if (missions_kept_ == 1) {
-      report << (stream_finished_ ? "mission complete in mapstored" : "NOT acknowledged by mapstored");
+      report << (streams_finished_ == 1 ? "mission complete in mapstored"
+                 : streams_durable_ == 1
+                     ? "mission journaled by mapstored (END acknowledged; map folder still being written)"
+                     : "NOT acknowledged by mapstored");
     } else {
       report << streams_finished_ << " of " << missions_kept_ << " missions complete in mapstored";
+      if (streams_durable_ > 0) report << ", " << streams_durable_ << " journaled (map folder pending)";
     }
   }
   const std::string& save_dir = options_.mapping.save_dir;

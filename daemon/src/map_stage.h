@@ -68,6 +68,7 @@ class MapStage {
     std::unique_ptr<mapstore::LcmMissionStreamSender> sender;
     std::deque<Part> backlog;
     int64_t deadline_ns = 0;  // steady clock: stream.end_timeout_s after the mission ended
+    int64_t durable_ns = -1;  // steady clock: when mapstored acknowledged the END as journaled
   };
   uint64_t MissionSeed(int k) const;
   std::string MissionName(int k) const;
@@ -105,7 +106,9 @@ class MapStage {
   mapping::MapBuilderStats stats_done_;      // of the kept missions that ended
   mapstore::MissionStreamSenderCounters stream_counters_done_;  // of the senders that ended
   std::vector<EndingStream> ending_streams_;
-  int streams_finished_ = 0, streams_unfinished_ = 0;
+  // Ended streams: COMPLETE (map folder written), END durable only (folder still being
+  // written when the daemon stopped waiting), neither within end_timeout_s.
+  int streams_finished_ = 0, streams_durable_ = 0, streams_unfinished_ = 0;
   std::deque<Part> backlog_;  // delta parts waiting for window space, in order
   // Deltas of the current mission sent whole: (delta index, seq of its last chunk), in order.
   std::deque<std::pair<int64_t, int64_t>> sent_deltas_;

@@ -96,6 +96,10 @@ struct MapStoreServer::OpenMission {
   bool dirty = false;           // appended since the last fsync
   bool need_ack = false;
   bool end_received = false;    // END journaled (maybe not yet durable)
+  // A finalization of the complete mission failed: retried from this time on (the END is
+  // already acknowledged as durable, so the sender no longer resends it to trigger a retry).
+  bool finalize_failed = false;
+  Clock::time_point finalize_retry_at{};
   int8_t status = vilma::mission_ack_t::OK;
   std::string status_message;
   std::map<int64_t, vilma::mission_chunk_t> reorder;  // seq > next_seq
@@ -389,9 +393,21 @@ void MapStoreServer::Flush() {
         m.reorder_bytes = 0;
       }
     }
+    const bool end_durable = m.end_received && m.durable_seq == m.next_seq - 1;
+    if (end_durable && m.finalize_failed && Clock::now() >= m.finalize_retry_at) {
+      to_finalize.push_back(entry.first);
+      continue;
+    }
     if (!m.need_ack) continue;
     m.need_ack = false;
-    if (m.end_received && m.durable_seq == m.next_seq - 1) {
+    if (end_durable) {
+      // The END is on disk: the mission is safe (a crash now recovers and finalizes it from
+      // the journal), so the sender is told before the finalization, which replays the whole
+      // journal and writes the map folder: ~2 min for an hour of mapping (3 GB of journal, a
+      // 552 MB folder; soak 2026-11-26), far above the sender's end_timeout_s. COMPLETE
+      // follows when the folder is written.
+      Ack(m.hex, m.session_id, m.durable_seq, vilma::mission_ack_t::OK,
+          "END journaled: writing the map folder");
       to_finalize.push_back(entry.first);
     } else {
       Ack(m.hex, m.session_id, m.durable_seq, m.status, m.status_message);
@@ -415,6 +431,12 @@ std::string MapStoreServer::ChooseFolder(const std::string& name, const MissionI
   }
   return hex;  // a previous finalization of this very mission (crash before its done marker)
 }
+
+namespace {
+// A failed finalization (disk full, I/O) is retried this often [s]: each attempt replays the
+// whole journal, so not in a tight loop.
+constexpr int kFinalizeRetryS = 5;
+}  // namespace
 
 bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
   const auto it = missions_.find(id);
@@ -463,9 +485,11 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
     Ack(m.hex, m.session_id, m.durable_seq - (complete ? 1 : 0),
         full ? vilma::mission_ack_t::DISK_FULL : vilma::mission_ack_t::ERROR,
         std::string("finalization failed: ") + e.what());
-    // The ack leaves the END unacknowledged: the sender resends it, which retries this
-    // finalization; an incomplete one is retried after another timeout.
+    // Retried by Flush() after kFinalizeRetryS (the END was acknowledged as durable before the
+    // finalization, so no resent END triggers it); an incomplete one after another timeout.
     m.last_activity = Clock::now();
+    m.finalize_failed = complete;
+    m.finalize_retry_at = Clock::now() + std::chrono::seconds(kFinalizeRetryS);
     return false;
   }
   std::ostringstream marker;
@@ -476,6 +500,8 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
     ++counters_.finalize_errors;
     ++(err == ENOSPC ? counters_.disk_full_errors : counters_.io_errors);
     log_("cannot write the done marker of mission " + m.hex + ": " + std::strerror(err));
+    m.finalize_failed = complete;
+    m.finalize_retry_at = Clock::now() + std::chrono::seconds(kFinalizeRetryS);
     Ack(m.hex, m.session_id, m.durable_seq - (complete ? 1 : 0),
         err == ENOSPC ? vilma::mission_ack_t::DISK_FULL : vilma::mission_ack_t::ERROR,
         std::string("done marker: ") + std::strerror(err));

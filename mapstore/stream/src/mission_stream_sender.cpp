@@ -152,7 +152,10 @@ void MissionStreamSender::OnAck(const vilma::mission_ack_t& ack) {
     return;
   }
   if (ack.ack_seq <= acked_seq_) {  // duplicate ack (a gap or a re-ack): the timer decides
-    if (ended_ && window_.empty() && ack.status == vilma::mission_ack_t::COMPLETE) finished_ = true;
+    if (ended_ && window_.empty() && ack.status == vilma::mission_ack_t::COMPLETE) {
+      finished_ = true;
+      end_durable_ = true;
+    }
     return;
   }
   while (!window_.empty() && window_.front().seq <= ack.ack_seq) {
@@ -161,6 +164,10 @@ void MissionStreamSender::OnAck(const vilma::mission_ack_t& ack) {
     ++counters_.acked;
   }
   acked_seq_ = ack.ack_seq;
+  if (ended_ && window_.empty() && (ack.status == vilma::mission_ack_t::OK ||
+                                    ack.status == vilma::mission_ack_t::COMPLETE)) {
+    end_durable_ = true;
+  }
   rto_s_ = options_.retransmit_timeout_s;
   last_progress_ = Clock::now();
   if (ended_ && window_.empty() && ack.status == vilma::mission_ack_t::COMPLETE) finished_ = true;
@@ -190,6 +197,10 @@ bool MissionStreamSender::ended() const {
 bool MissionStreamSender::finished() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return finished_;
+}
+bool MissionStreamSender::end_durable() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return end_durable_;
 }
 int64_t MissionStreamSender::next_seq() const {
   std::lock_guard<std::mutex> lock(mutex_);

@@ -84,7 +84,11 @@ class MissionStreamSender {
   void Poll(Clock::time_point now = Clock::now());
 
   bool ended() const;
-  bool finished() const;          // END acknowledged (status COMPLETE)
+  bool finished() const;          // END acknowledged (status COMPLETE): the map folder is written
+  // END acknowledged as journaled and fsynced (status OK or COMPLETE): the whole mission is
+  // durable in mapstored, which finalizes it (also after its own crash, from the journal).
+  // A sender that must stop may stop here; finished() may come much later for a long mission.
+  bool end_durable() const;
   int64_t next_seq() const;       // seq of the next chunk
   int64_t acked_seq() const;      // -1: nothing acknowledged yet
   std::size_t window_chunks() const;
@@ -115,6 +119,7 @@ class MissionStreamSender {
   int64_t transmitted_seq_ = -1;  // highest seq transmitted at least once
   bool ended_ = false;
   bool finished_ = false;
+  bool end_durable_ = false;
   int last_status_ = vilma::mission_ack_t::OK;
   std::string last_message_;
   double rto_s_ = 0.0;
