@@ -1,7 +1,8 @@
 // vilma-mapstored's handling of mission-stream messages (mapstore/stream/map_store_server.h):
 // the input is a sequence of LCM-encoded mission_chunk_t, each behind a 2-byte little-endian
 // length; every chunk that decodes goes to a fresh server (its own root folder), which acks,
-// journals, reorders, applies the deltas and finalizes the mission at the end.
+// journals, reorders, applies the deltas and finalizes the mission at the end. Every map folder
+// it finalizes must then load and pass check_map_consistency.
 #include <cstddef>
 #include <cstdint>
 #include <exception>
@@ -14,6 +15,8 @@
 
 #include "fuzz_util.h"
 #include "vilma/drivers/lcm_safe_decode.h"
+#include "vilma/mapstore/consistency.h"
+#include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/stream/map_store_server.h"
 #include "vilma/mapstore/stream/mission_stream_sender.h"
 #include "vilma/mapstore/stream/synthetic_mission.h"
@@ -76,6 +79,19 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, std::size_t size) {
     server.Flush();
     server.Shutdown();
   } catch (const std::exception&) {
+  }
+  // Oracle: whatever mapstored finalized must load and be consistent (a mission name that
+  // was not UTF-8 once made a map folder that saved but never loaded).
+  for (const auto& entry : fs::directory_iterator(root)) {
+    const std::string name = entry.path().filename().string();
+    if (name.empty() || name[0] == '.' || !entry.is_directory()) continue;
+    try {
+      if (!vilma::mapstore::CheckMapConsistency(vilma::mapstore::LoadMap(entry.path().string())).ok()) {
+        __builtin_trap();
+      }
+    } catch (const std::exception&) {
+      __builtin_trap();
+    }
   }
   return 0;
 }
