@@ -25,7 +25,38 @@ struct WriteResult {
 WriteResult RenameIntoPlace(const char* tmp, const std::string& path, const std::string& dir);
 std::string FolderOf(const std::string& path);
 
+// A target that exists and is not a regular file (/dev/null, /dev/stdout, a FIFO, a terminal)
+// is written through, never renamed over: a rename replaced the device node /dev/null with a
+// regular file when a program was given `--out /dev/null` (found on the development machine).
+// stat() follows symlinks, so /dev/stdout -> /proc/self/fd/1 counts by what it points to.
+bool IsSpecialFile(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode);
+}
+
+WriteResult WriteAll(int fd, const char* data, std::size_t size) {
+  std::size_t written = 0;
+  while (written < size) {
+    const ssize_t n = ::write(fd, data + written, size - written);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      return {errno, "room to write the file"};
+    }
+    written += static_cast<std::size_t>(n);
+  }
+  return {};
+}
+
+WriteResult WriteThrough(const std::string& path, const std::string& content) {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (fd < 0) return {errno, "a writable file"};
+  const WriteResult r = WriteAll(fd, content.data(), content.size());
+  ::close(fd);
+  return r;
+}
+
 WriteResult WriteAtomically(const std::string& path, const std::string& content) {
+  if (IsSpecialFile(path)) return WriteThrough(path, content);
   const fs::path target(path);
   const std::string dir = FolderOf(path);
   // mkstemp gives a name no other writer (thread or process) uses at the same time.
@@ -42,14 +73,10 @@ WriteResult WriteAtomically(const std::string& path, const std::string& content)
   };
   // mkstemp creates 0600; data files are readable by others, as with open(..., 0644).
   if (::fchmod(fd, 0644) != 0) return fail("permission to set the file mode");
-  std::size_t written = 0;
-  while (written < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + written, content.size() - written);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      return fail("room to write the file");
-    }
-    written += static_cast<std::size_t>(n);
+  const WriteResult written = WriteAll(fd, content.data(), content.size());
+  if (written.error != 0) {
+    errno = written.error;
+    return fail(written.step);
   }
   if (::fsync(fd) != 0) return fail("a successful fsync");
   if (::close(fd) != 0) {
@@ -82,7 +109,41 @@ std::string FolderOf(const std::string& path) {
   return parent.empty() ? std::string(".") : parent.string();
 }
 
+// The partial file's bytes copied into a special target (see IsSpecialFile); the partial file
+// is removed afterwards by the caller's success path below.
+WriteResult CopyThrough(const std::string& partial_path, const std::string& path) {
+  const int in = ::open(partial_path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (in < 0) return {errno, "the written temporary file"};
+  const int out = ::open(path.c_str(), O_WRONLY | O_CLOEXEC);
+  if (out < 0) {
+    const int err = errno;
+    ::close(in);
+    return {err, "a writable file"};
+  }
+  WriteResult r;
+  std::vector<char> buffer(1 << 16);
+  for (;;) {
+    const ssize_t n = ::read(in, buffer.data(), buffer.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) {
+      r = {errno, "the written temporary file"};
+      break;
+    }
+    if (n == 0) break;
+    r = WriteAll(out, buffer.data(), static_cast<std::size_t>(n));
+    if (r.error != 0) break;
+  }
+  ::close(in);
+  ::close(out);
+  return r;
+}
+
 WriteResult CommitAtomically(const std::string& partial_path, const std::string& path) {
+  if (IsSpecialFile(path)) {
+    const WriteResult r = CopyThrough(partial_path, path);
+    if (r.error == 0) ::unlink(partial_path.c_str());
+    return r;
+  }
   const int fd = ::open(partial_path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) return {errno, "the written temporary file"};
   if (::fsync(fd) != 0) {

@@ -1,8 +1,10 @@
 #include "vilma/core/atomic_file.h"
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <catch2/catch.hpp>
@@ -99,6 +101,46 @@ TEST_CASE("CommitFileAtomically: a file another writer made replaces the target,
   CHECK_FALSE(fs::exists(partial));
   CHECK(TryCommitFileAtomically(partial, path) == ENOENT);
   CHECK(ReadAll(path) == "new");
+}
+
+// Everything the pipe's read end holds now (non-blocking: a writer that never came gives "").
+std::string Drain(int fd) {
+  std::string out;
+  char buffer[4096];
+  for (;;) {
+    const ssize_t n = ::read(fd, buffer, sizeof(buffer));
+    if (n <= 0) return out;
+    out.append(buffer, static_cast<std::size_t>(n));
+  }
+}
+
+TEST_CASE("WriteFileAtomically and CommitFileAtomically write through a FIFO or device, never "
+          "rename over it", "[atomic_file]") {
+  // `--out /dev/null` once replaced the device node /dev/null with a regular file (a rename over
+  // it). A FIFO stands in for any special file here: it must stay a FIFO and carry the bytes.
+  // Its read end is open (non-blocking) first, so a writer can open it and a rename over it
+  // shows as nothing received, not as a hang.
+  testing::TempDir dir;
+  const std::string fifo = dir.File("pipe");
+  REQUIRE(::mkfifo(fifo.c_str(), 0600) == 0);
+  const int read_fd = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  REQUIRE(read_fd >= 0);
+  WriteFileAtomically(fifo, "through the pipe");
+  CHECK(Drain(read_fd) == "through the pipe");
+  struct stat st {};
+  REQUIRE(::stat(fifo.c_str(), &st) == 0);
+  CHECK(S_ISFIFO(st.st_mode));
+
+  const std::string partial = dir.File(".pipe.partial");
+  const std::string bytes(60000, 'x');  // within the pipe's 64 KiB buffer
+  std::ofstream(partial, std::ios::binary) << bytes;
+  CommitFileAtomically(partial, fifo);
+  CHECK(Drain(read_fd) == bytes);
+  REQUIRE(::stat(fifo.c_str(), &st) == 0);
+  CHECK(S_ISFIFO(st.st_mode));
+  CHECK(!fs::exists(partial));
+  CHECK(Names(dir.path()) == std::vector<std::string>{"pipe"});
+  ::close(read_fd);
 }
 
 TEST_CASE("WriteFileAtomically: a failed write leaves the old file intact and no temporary",

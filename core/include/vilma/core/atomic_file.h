@@ -10,7 +10,9 @@ namespace vilma {
 // (hidden: ".<name>.XXXXXX", so folder listings never take it for data), fsync of the file,
 // rename over `path`, fsync of the folder (so the rename itself survives a power loss). On
 // failure the temporary file is removed and an existing `path` is left as it was.
-// Throws InputError naming `path` and the step that failed.
+// Throws InputError naming `path` and the step that failed. A `path` that exists and is not a
+// regular file (/dev/null, /dev/stdout, a FIFO) is written through instead: a rename would
+// replace the device node. The same holds for CommitFileAtomically.
 void WriteFileAtomically(const std::string& path, const std::string& content);
 
 // The same, for callers that report failures as a status instead of an exception (mapstored
