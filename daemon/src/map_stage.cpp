@@ -215,7 +215,6 @@ void MapStage::ReleaseAcknowledged() {
   if (released >= 0) builder_->ReleaseAcknowledged(released);
 }
 
-// Acks (the senders' handlers run in this thread: each takes the acks of its mission),
 namespace {
 // After mapstored acknowledged the END as durable, how long the ending stream still waits for
 // COMPLETE (the map folder written) [ns]: a short mission's folder follows within
@@ -223,6 +222,7 @@ namespace {
 constexpr int64_t kCompleteGraceNs = 1'000'000'000;
 }  // namespace
 
+// Acks (the senders' handlers run in this thread: each takes the acks of its mission),
 // retransmissions, queued deltas.
 void MapStage::ServiceStream(int timeout_ms) {
   if (transport_->Handle(timeout_ms) > 0) {
