@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
-#include <iomanip>
 #include <sstream>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 
 namespace vilma::estimator {
@@ -238,34 +238,9 @@ std::string FilterOptions::Validate() const {
 
 FilterOptions ReadFilterOptions(const YamlNode& root) {
   FilterOptions options;
-  // Sections are looked up by their dotted path; each section node is checked for unknown
-  // keys after all its fields were read.
-  std::vector<std::pair<std::string, YamlNode>> sections;
-  sections.emplace_back("", root);
-  auto section = [&](const std::string& name) -> const YamlNode& {
-    for (const auto& s : sections) {
-      if (s.first == name) return s.second;
-    }
-    const std::size_t dot = name.rfind('.');
-    const std::string parent = dot == std::string::npos ? "" : name.substr(0, dot);
-    const std::string key = dot == std::string::npos ? name : name.substr(dot + 1);
-    YamlNode parent_node = [&]() {
-      for (const auto& s : sections) {
-        if (s.first == parent) return s.second;
-      }
-      root.Fail(parent, "a map");
-    }();
-    sections.emplace_back(name, parent_node.MapChild(key));
-    return sections.back().second;
-  };
-  if (!root.IsMap()) root.Fail("", "a map of filter options");
-  VisitOptions(options, [&](const char* sec, const char* key, auto& field) {
-    using T = std::decay_t<decltype(field)>;
-    // Copy: `section` may grow the vector and invalidate references.
-    const YamlNode node = section(sec);
-    field = node.Get<T>(key);
-  });
-  for (const auto& s : sections) s.second.CheckNoUnknownKeys();
+  // Every key is required: a filter options file lists all of them (FilterOptionsToYaml).
+  ReadOptionFields(root, MissingKey::kRequired, &options,
+                   [](auto& o, auto&& v) { VisitOptions(o, v); });
   ThrowIfInvalid(options.Validate(), root.file());
   return options;
 }
@@ -279,42 +254,7 @@ FilterOptions LoadFilterOptions(const std::string& path) {
 }
 
 std::string FilterOptionsToYaml(const FilterOptions& options) {
-  std::ostringstream out;
-  out << std::setprecision(17);
-  std::string current = "";
-  FilterOptions copy = options;
-  VisitOptions(copy, [&](const char* sec, const char* key, auto& field) {
-    const std::string s = sec;
-    if (s != current) {
-      // Print the headers of every section level not printed yet.
-      std::size_t start = 0;
-      while (start <= s.size()) {
-        const std::size_t dot = s.find('.', start);
-        const std::string prefix = s.substr(0, dot);
-        const bool printed = current == prefix || current.rfind(prefix + ".", 0) == 0;
-        if (!printed) {
-          const int depth = static_cast<int>(std::count(prefix.begin(), prefix.end(), '.'));
-          out << std::string(2 * static_cast<std::size_t>(depth), ' ')
-              << prefix.substr(prefix.rfind('.') == std::string::npos ? 0
-                                                                      : prefix.rfind('.') + 1)
-              << ":\n";
-        }
-        if (dot == std::string::npos) break;
-        start = dot + 1;
-      }
-      current = s;
-    }
-    const int depth =
-        s.empty() ? 0 : 1 + static_cast<int>(std::count(s.begin(), s.end(), '.'));
-    out << std::string(2 * static_cast<std::size_t>(depth), ' ') << key << ": ";
-    if constexpr (std::is_same_v<std::decay_t<decltype(field)>, bool>) {
-      out << (field ? "true" : "false");
-    } else {
-      out << field;
-    }
-    out << "\n";
-  });
-  return out.str();
+  return OptionFieldsToYaml(options, [](auto& o, auto&& v) { VisitOptions(o, v); });
 }
 
 FilterOptions FilterOptionsProfile(const std::string& name) {

@@ -1,11 +1,11 @@
 #include "vilma/localizer/feature_options.h"
 
-#include <charconv>
 #include <cmath>
 #include <sstream>
 #include <type_traits>
 
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 
 namespace vilma::localizer {
@@ -43,8 +43,6 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("ransac", "min_translation_support", o.ransac.min_translation_support);
   v("ransac", "seed", o.ransac.seed);
 }
-
-const char* kSections[] = {"detector", "descriptor", "matcher", "ransac"};
 
 }  // namespace
 
@@ -130,18 +128,9 @@ std::string KeyframeFeatureOptions::Validate() const {
 KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& root) {
   if (!root.IsMap()) root.Fail("", "a map of keyframe feature options");
   KeyframeFeatureOptions options;
-  std::vector<YamlNode> sections;
-  for (const char* name : kSections) {
-    sections.push_back(root.MapChild(name));
-  }
-  VisitOptions(options, [&](const char* section, const char* key, auto& field) {
-    using T = std::decay_t<decltype(field)>;
-    for (std::size_t i = 0; i < sections.size(); ++i) {
-      if (std::string(kSections[i]) == section) field = sections[i].Get<T>(key);
-    }
-  });
-  root.CheckNoUnknownKeys();
-  for (const auto& s : sections) s.CheckNoUnknownKeys();
+  // Every key is required: a features file lists all of them (KeyframeFeatureOptionsToYaml).
+  ReadOptionFields(root, MissingKey::kRequired, &options,
+                   [](auto& o, auto&& v) { VisitOptions(o, v); });
   root.CheckValid(options.Validate());
   return options;
 }
@@ -156,31 +145,7 @@ KeyframeFeatureOptions LoadKeyframeFeatureOptions(const std::string& path) {
 }
 
 std::string KeyframeFeatureOptionsToYaml(const KeyframeFeatureOptions& options) {
-  std::ostringstream out;
-  std::string current;
-  KeyframeFeatureOptions copy = options;
-  VisitOptions(copy, [&](const char* section, const char* key, auto& field) {
-    if (current != section) {
-      current = section;
-      out << section << ":\n";
-    }
-    out << "  " << key << ": ";
-    using T = std::decay_t<decltype(field)>;
-    if constexpr (std::is_same_v<T, bool>) {
-      out << (field ? "true" : "false");
-    } else if constexpr (std::is_same_v<T, std::string>) {
-      out << '"' << field << '"';
-    } else if constexpr (std::is_same_v<T, double>) {
-      // Shortest text that reads back to the same double.
-      char buffer[64];
-      const auto r = std::to_chars(buffer, buffer + sizeof(buffer), field);
-      out << std::string(buffer, r.ptr);
-    } else {
-      out << field;
-    }
-    out << "\n";
-  });
-  return out.str();
+  return OptionFieldsToYaml(options, [](auto& o, auto&& v) { VisitOptions(o, v); });
 }
 
 KeyframeFeatureOptions LocalizationQueryFeatureOptions() {
