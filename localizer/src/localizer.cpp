@@ -10,20 +10,60 @@
 #include <unordered_map>
 
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/timing.h"
 #include "vilma/core/yaml_io.h"
 
 namespace vilma::localizer {
 namespace {
 
-template <typename T>
-void Read(const YamlNode& node, const char* key, T* value) {
-  *value = node.GetOr<T>(key, *value);
-}
-void Read(const YamlNode& node, const char* key, uint64_t* value) {
-  const int64_t v = node.GetOr<int64_t>(key, static_cast<int64_t>(*value));
-  if (v < 0) node.Fail(key, "expected a non-negative seed");
-  *value = static_cast<uint64_t>(v);
+// One list of every option (core/options_fields.h): the reader and the writer stay in sync.
+template <typename Options, typename Visitor>
+void VisitLocalizerOptions(Options& o, Visitor&& v) {
+  v("map", "max_descriptors_per_landmark", o.map.max_descriptors_per_landmark);
+  v("map", "min_observations", o.map.min_observations);
+  v("map", "calibrate_landmark_covariances", o.map.calibrate_landmark_covariances);
+  v("projection", "dimensions", o.projection.dimensions);
+  v("projection", "max_pairs", o.projection.max_pairs);
+  v("projection", "regularization", o.projection.regularization);
+  v("projection", "seed", o.projection.seed);
+  v("index", "codebook_size", o.index.codebook_size);
+  v("index", "kmeans_iterations", o.index.kmeans_iterations);
+  v("index", "kmeans_max_samples", o.index.kmeans_max_samples);
+  v("index", "seed", o.index.seed);
+  v("index", "min_neighbors", o.index.min_neighbors);
+  v("index", "max_neighbors", o.index.max_neighbors);
+  v("index", "descriptors_per_extra_neighbor", o.index.descriptors_per_extra_neighbor);
+  v("index", "candidates_per_neighbor", o.index.candidates_per_neighbor);
+  v("matching", "max_hamming_distance", o.matching.max_hamming_distance);
+  v("matching", "max_landmarks_per_keypoint", o.matching.max_landmarks_per_keypoint);
+  v("matching", "covisibility_filter", o.matching.covisibility_filter);
+  v("matching", "min_matches", o.matching.min_matches);
+  v("ransac", "threshold_px", o.ransac.threshold_px);
+  v("ransac", "max_iterations", o.ransac.max_iterations);
+  v("ransac", "probability", o.ransac.probability);
+  v("ransac", "min_inliers", o.ransac.min_inliers);
+  v("ransac", "refine_iterations", o.ransac.refine_iterations);
+  v("ransac", "keypoint_sigma_px", o.ransac.keypoint_sigma_px);
+  v("ransac", "seed", o.ransac.seed);
+  v("acceptance", "min_inlier_ratio", o.acceptance.min_inlier_ratio);
+  v("acceptance", "refine_rounds", o.acceptance.refine_rounds);
+  v("acceptance", "max_median_error_ratio", o.acceptance.max_median_error_ratio);
+  v("acceptance", "max_p90_error_ratio", o.acceptance.max_p90_error_ratio);
+  v("acceptance", "grid_cols", o.acceptance.grid_cols);
+  v("acceptance", "grid_rows", o.acceptance.grid_rows);
+  v("acceptance", "min_cell_fraction", o.acceptance.min_cell_fraction);
+  v("acceptance", "min_hull_fraction", o.acceptance.min_hull_fraction);
+  v("acceptance", "max_position_sigma_m", o.acceptance.max_position_sigma_m);
+  v("acceptance", "max_rotation_sigma_deg", o.acceptance.max_rotation_sigma_deg);
+  v("acceptance", "landmark_uncertainty", o.acceptance.landmark_uncertainty);
+  v("acceptance", "unweighted_covariance", o.acceptance.unweighted_covariance);
+  v("acceptance", "rival_check", o.acceptance.rival_check);
+  v("acceptance", "rival_exclusion_factor", o.acceptance.rival_exclusion_factor);
+  v("acceptance", "max_rival_ratio", o.acceptance.max_rival_ratio);
+  v("acceptance", "rival_max_iterations", o.acceptance.rival_max_iterations);
+  v("acceptance", "rival_min_position_m", o.acceptance.rival_min_position_m);
+  v("acceptance", "rival_min_rotation_deg", o.acceptance.rival_min_rotation_deg);
 }
 
 struct UnionFind {
@@ -65,79 +105,17 @@ std::string LocalizerOptions::Validate() const {
 LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::string& source) {
   const YamlNode root = YamlNode::LoadString(yaml_text, source);
   LocalizerOptions o;
-  if (!root.IsMap()) root.Fail("", "expected a map of sections");
-  if (root.Has("map")) {
-    const YamlNode n = root.Child("map");
-    Read(n, "max_descriptors_per_landmark", &o.map.max_descriptors_per_landmark);
-    Read(n, "min_observations", &o.map.min_observations);
-    Read(n, "calibrate_landmark_covariances", &o.map.calibrate_landmark_covariances);
-    n.CheckNoUnknownKeys();
-  }
-  if (root.Has("projection")) {
-    const YamlNode n = root.Child("projection");
-    Read(n, "dimensions", &o.projection.dimensions);
-    Read(n, "max_pairs", &o.projection.max_pairs);
-    Read(n, "regularization", &o.projection.regularization);
-    Read(n, "seed", &o.projection.seed);
-    n.CheckNoUnknownKeys();
-  }
-  if (root.Has("index")) {
-    const YamlNode n = root.Child("index");
-    Read(n, "codebook_size", &o.index.codebook_size);
-    Read(n, "kmeans_iterations", &o.index.kmeans_iterations);
-    Read(n, "kmeans_max_samples", &o.index.kmeans_max_samples);
-    Read(n, "seed", &o.index.seed);
-    Read(n, "min_neighbors", &o.index.min_neighbors);
-    Read(n, "max_neighbors", &o.index.max_neighbors);
-    Read(n, "descriptors_per_extra_neighbor", &o.index.descriptors_per_extra_neighbor);
-    Read(n, "candidates_per_neighbor", &o.index.candidates_per_neighbor);
-    n.CheckNoUnknownKeys();
-  }
-  if (root.Has("matching")) {
-    const YamlNode n = root.Child("matching");
-    Read(n, "max_hamming_distance", &o.matching.max_hamming_distance);
-    Read(n, "max_landmarks_per_keypoint", &o.matching.max_landmarks_per_keypoint);
-    Read(n, "covisibility_filter", &o.matching.covisibility_filter);
-    Read(n, "min_matches", &o.matching.min_matches);
-    n.CheckNoUnknownKeys();
-  }
-  if (root.Has("ransac")) {
-    const YamlNode n = root.Child("ransac");
-    Read(n, "threshold_px", &o.ransac.threshold_px);
-    Read(n, "max_iterations", &o.ransac.max_iterations);
-    Read(n, "probability", &o.ransac.probability);
-    Read(n, "min_inliers", &o.ransac.min_inliers);
-    Read(n, "refine_iterations", &o.ransac.refine_iterations);
-    Read(n, "keypoint_sigma_px", &o.ransac.keypoint_sigma_px);
-    Read(n, "seed", &o.ransac.seed);
-    n.CheckNoUnknownKeys();
-  }
-  if (root.Has("acceptance")) {
-    const YamlNode n = root.Child("acceptance");
-    PoseAcceptanceOptions& a = o.acceptance;
-    Read(n, "min_inlier_ratio", &a.min_inlier_ratio);
-    Read(n, "refine_rounds", &a.refine_rounds);
-    Read(n, "max_median_error_ratio", &a.max_median_error_ratio);
-    Read(n, "max_p90_error_ratio", &a.max_p90_error_ratio);
-    Read(n, "grid_cols", &a.grid_cols);
-    Read(n, "grid_rows", &a.grid_rows);
-    Read(n, "min_cell_fraction", &a.min_cell_fraction);
-    Read(n, "min_hull_fraction", &a.min_hull_fraction);
-    Read(n, "max_position_sigma_m", &a.max_position_sigma_m);
-    Read(n, "max_rotation_sigma_deg", &a.max_rotation_sigma_deg);
-    Read(n, "landmark_uncertainty", &a.landmark_uncertainty);
-    Read(n, "unweighted_covariance", &a.unweighted_covariance);
-    Read(n, "rival_check", &a.rival_check);
-    Read(n, "rival_exclusion_factor", &a.rival_exclusion_factor);
-    Read(n, "max_rival_ratio", &a.max_rival_ratio);
-    Read(n, "rival_max_iterations", &a.rival_max_iterations);
-    Read(n, "rival_min_position_m", &a.rival_min_position_m);
-    Read(n, "rival_min_rotation_deg", &a.rival_min_rotation_deg);
-    n.CheckNoUnknownKeys();
-  }
-  root.CheckNoUnknownKeys();
+  // Missing keys (and sections) keep their defaults: config/localizer.yaml lists only what a
+  // user changes.
+  ReadOptionFields(root, MissingKey::kKeepDefault, &o,
+                   [](auto& options, auto&& v) { VisitLocalizerOptions(options, v); });
   ThrowIfInvalid(o.Validate(), source);
   return o;
+}
+
+std::string LocalizerOptionsToYaml(const LocalizerOptions& options) {
+  return OptionFieldsToYaml(options,
+                            [](auto& o, auto&& v) { VisitLocalizerOptions(o, v); });
 }
 
 LocalizerOptions LoadLocalizerOptions(const std::string& path) {

@@ -263,3 +263,39 @@ TEST_CASE("localizer: end to end on simulated room sessions (map from room-easy,
   CHECK(Percentile(rot_err_deg, 0.5) < 0.5);
   CHECK(Percentile(query_ms, 0.5) < 20.0);
 }
+
+TEST_CASE("localizer options: every option round-trips through LocalizerOptionsToYaml",
+          "[localization][options]") {
+  // Defaults: written, read back, written again: the same text (doubles as shortest round-trip
+  // text, so equal text means equal values).
+  const std::string defaults = LocalizerOptionsToYaml(LocalizerOptions());
+  CHECK(LocalizerOptionsToYaml(ParseLocalizerOptions(defaults, "defaults.yaml")) == defaults);
+  // Every section is written.
+  for (const char* section : {"map:", "projection:", "index:", "matching:", "ransac:",
+                              "acceptance:"}) {
+    const bool written = defaults.find(std::string("\n") + section) != std::string::npos ||
+                         defaults.rfind(section, 0) == 0;
+    CHECK(written);
+  }
+  // A value of each kind changed from its default survives (bool, int, uint64 seed, double).
+  LocalizerOptions changed;
+  changed.map.calibrate_landmark_covariances = !changed.map.calibrate_landmark_covariances;
+  changed.index.codebook_size += 3;
+  changed.ransac.seed = 123456789012345ULL;
+  changed.acceptance.max_position_sigma_m = 0.1 + 0.2;
+  changed.acceptance.rival_min_rotation_deg = 1.0 / 3.0;
+  const LocalizerOptions back =
+      ParseLocalizerOptions(LocalizerOptionsToYaml(changed), "changed.yaml");
+  CHECK(back.map.calibrate_landmark_covariances == changed.map.calibrate_landmark_covariances);
+  CHECK(back.index.codebook_size == changed.index.codebook_size);
+  CHECK(back.ransac.seed == changed.ransac.seed);
+  CHECK(back.acceptance.max_position_sigma_m == changed.acceptance.max_position_sigma_m);
+  CHECK(back.acceptance.rival_min_rotation_deg == changed.acceptance.rival_min_rotation_deg);
+  CHECK(LocalizerOptionsToYaml(back) == LocalizerOptionsToYaml(changed));
+  CHECK(LocalizerOptionsToYaml(back) != defaults);
+  // The shipped file reads, and writes back to the same values.
+  const LocalizerOptions shipped =
+      LoadLocalizerOptions(std::string(VILMA_SOURCE_DIR) + "/config/localizer.yaml");
+  CHECK(LocalizerOptionsToYaml(ParseLocalizerOptions(LocalizerOptionsToYaml(shipped), "x")) ==
+        LocalizerOptionsToYaml(shipped));
+}

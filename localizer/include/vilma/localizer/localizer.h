@@ -47,6 +47,8 @@ struct LocalizerOptions {
 // their defaults.
 LocalizerOptions LoadLocalizerOptions(const std::string& path);
 LocalizerOptions ParseLocalizerOptions(const std::string& yaml_text, const std::string& source);
+// Every option as YAML (sections as above) that ParseLocalizerOptions reads back to equal values.
+std::string LocalizerOptionsToYaml(const LocalizerOptions& options);
 
 enum class LocalizationStatus : uint8_t {
   kOk = 0,
