@@ -21,6 +21,7 @@
 #include "vilma/drivers/lcm_url.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/mapstore/stream/map_store_server.h"
+#include "vilma/mapstore/stream/mapstored_config.h"
 #include "vilma/mapstore/stream/mission_post_processor.h"
 
 #ifdef VILMA_HAVE_SYSTEMD
@@ -34,6 +35,7 @@ void OnSignal(int) { g_stop = true; }
 
 constexpr const char kUsage[] =
     "usage: vilma-mapstored --root DIR [--lcm-url URL] [--channel-suffix S] [--config FILE]\n"
+    "       vilma-mapstored [--config FILE] --print-config\n"
     "\n"
     "Receives mission streams (VILMA_MISSION), journals every chunk with fsync before it is\n"
     "acknowledged (VILMA_MISSION_ACK) and writes each finished mission as a map folder\n"
@@ -55,47 +57,15 @@ constexpr const char kUsage[] =
     "                                                     # mission folder (docs/mapstore.md)\n"
     "                         post_process_timeout_s: 3600\n"
     "                         vilma_program: \"\"           # default: vilma beside this program\n"
+    "  --print-config       print the configuration in effect (--config FILE and the defaults)\n"
+    "                       as YAML that --config reads back, and exit\n"
     "  --help               this text\n";
-
-struct Config {
-  vilma::mapstore::MapStoreServerOptions server;
-  int max_ack_batch = 256;  // chunks handled between two fsync+ack rounds
-  vilma::mapstore::PostProcessOptions post_process;
-};
 
 // `vilma` beside this executable (the build tree and an installed prefix both have it there).
 std::string DefaultVilmaProgram() {
   std::error_code error;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
   return error ? std::string("vilma") : (self.parent_path() / "vilma").string();
-}
-
-Config LoadConfig(const std::string& path) {
-  Config c;
-  if (path.empty()) return c;
-  const vilma::YamlNode yaml = vilma::YamlNode::LoadFile(path);
-  c.server.incomplete_timeout_s = yaml.GetOr<double>("incomplete_timeout_s", 0.0);
-  c.server.finalize_incomplete_at_shutdown = yaml.GetOr<bool>("finalize_incomplete_at_shutdown", false);
-  c.server.max_reorder_chunks = yaml.GetOr<int>("max_reorder_chunks", 1024);
-  const int max_reorder_mib = yaml.GetOr<int>("max_reorder_mib", 256);
-  if (max_reorder_mib < 64 || max_reorder_mib > 65536) {
-    yaml.Fail("max_reorder_mib", "an integer in [64, 65536] (MiB; a chunk may hold 64 MiB)");
-  }
-  c.server.max_reorder_bytes = static_cast<std::size_t>(max_reorder_mib) << 20;
-  c.post_process.vilma_program = DefaultVilmaProgram();
-  c.max_ack_batch = yaml.GetOr<int>("max_ack_batch", 256);
-  c.post_process.script = yaml.GetOr<std::string>("post_process_script", "");
-  if (!c.post_process.script.empty() && c.post_process.script[0] != '/') {  // relative to the file
-    c.post_process.script =
-        (std::filesystem::path(path).parent_path() / c.post_process.script).string();
-  }
-  c.post_process.timeout_s = yaml.GetOr<double>("post_process_timeout_s", 3600.0);
-  c.post_process.vilma_program = yaml.GetOr<std::string>("vilma_program", DefaultVilmaProgram());
-  yaml.CheckNoUnknownKeys();
-  yaml.CheckValid(c.post_process.Validate());
-  if (c.max_ack_batch < 1) yaml.Fail("max_ack_batch", "an integer >= 1");
-  if (c.server.incomplete_timeout_s < 0) yaml.Fail("incomplete_timeout_s", "a number >= 0");
-  return c;
 }
 
 void Log(const std::string& text) {
@@ -107,6 +77,7 @@ void Log(const std::string& text) {
 
 int main(int argc, char** argv) {
   std::string root, url, suffix, config_path;
+  bool print_config = false;
   const std::vector<std::string> args(argv + 1, argv + argc);
   try {
     for (vilma::ArgCursor arg(args); arg.Next();) {
@@ -122,6 +93,8 @@ int main(int argc, char** argv) {
         suffix = arg.Value();
       } else if (a == "--config") {
         config_path = arg.Value();
+      } else if (a == "--print-config") {
+        print_config = true;
       } else {
         throw vilma::UsageError("unknown argument " + arg.word());
       }
@@ -130,18 +103,24 @@ int main(int argc, char** argv) {
     std::cerr << "vilma-mapstored: " << e.what() << "\n" << kUsage;
     return 2;
   }
-  if (root.empty()) {
+  if (root.empty() && !print_config) {
     std::cerr << "vilma-mapstored: --root DIR is required\n" << kUsage;
     return 2;
   }
-  Config config;
+  vilma::mapstore::MapstoredConfig config;
   try {
-    config = LoadConfig(config_path);
+    if (!config_path.empty()) config = vilma::mapstore::LoadMapstoredConfig(config_path);
   } catch (const vilma::InputError& e) {
     std::cerr << "vilma-mapstored: " << e.what() << "\n";
     return 2;
   }
-  config.server.root = root;
+  if (print_config) {
+    std::cout << vilma::mapstore::MapstoredConfigToYaml(config);
+    return 0;
+  }
+  const vilma::mapstore::MapStoreServerOptions server_options = config.ServerOptions(root);
+  const vilma::mapstore::PostProcessOptions post_options =
+      config.PostProcess(DefaultVilmaProgram());
   const std::string chunk_channel = vilma::ChannelName("VILMA_MISSION", suffix);
   const std::string ack_channel = vilma::ChannelName("VILMA_MISSION_ACK", suffix);
   const std::string status_channel = vilma::ChannelName("VILMA_STATUS", suffix);
@@ -169,10 +148,10 @@ int main(int argc, char** argv) {
   std::unique_ptr<vilma::mapstore::MissionPostProcessor> post;
   try {
     server = std::make_unique<vilma::mapstore::MapStoreServer>(
-        config.server,
+        server_options,
         [&](const vilma::mission_ack_t& ack) { lcm.publish(ack_channel, &ack); }, Log);
     server->Start();
-    post = std::make_unique<vilma::mapstore::MissionPostProcessor>(root, config.post_process, Log);
+    post = std::make_unique<vilma::mapstore::MissionPostProcessor>(root, post_options, Log);
     post->Scan();  // missions finished (or interrupted while processed) before this start
   } catch (const std::exception& e) {
     std::cerr << "vilma-mapstored: " << e.what() << "\n";
@@ -215,7 +194,7 @@ int main(int argc, char** argv) {
   // flight of chunks from several senders.
   subscription->setQueueCapacity(4096);
   Log("root " + root + ", LCM " + lcm_url + ", channels " + chunk_channel + " / " + ack_channel +
-      ", incomplete_timeout_s " + std::to_string(config.server.incomplete_timeout_s) +
+      ", incomplete_timeout_s " + std::to_string(config.incomplete_timeout_s) +
       ", max_ack_batch " + std::to_string(config.max_ack_batch) + "; ready");
 #ifdef VILMA_HAVE_SYSTEMD
   sd_notify(0, "READY=1");
