@@ -1,4 +1,5 @@
 #include "vilma/sim/world.h"
+#include "vilma/sim/world_file.h"
 
 #include <catch2/catch.hpp>
 #include <cstdio>
@@ -86,4 +87,54 @@ TEST_CASE("DistanceToQuad: inside, beside an edge, beyond a corner, DistanceToWo
   far.origin_W = Eigen::Vector3d(0, 0, 2);
   world.quads.push_back(far);
   CHECK(vilma::sim::DistanceToWorld(world, Eigen::Vector3d(0.5, 0.5, 1.5)) == Approx(0.5));
+}
+
+TEST_CASE("world file: a description round-trips and builds the same world",
+          "[sim][world][options]") {
+  const std::string text =
+      "name: \"round trip\"\nbackground: 50.5\n"
+      "rooms:\n  - {min: [-3, -3, 0], max: [3, 3, 2.5], texel_size: 0.05, ceiling: false}\n"
+      "boxes:\n  - {center: [1, 1, 0.5], size: [1, 0.3, 1], yaw: 0.7}\n"
+      "quads:\n  - {origin: [0, -2.9, 1], edge_u: [0.5, 0, 0], edge_v: [0, 0, 0.5], "
+      "texture: checker, mean: 90, contrast: 0.3, two_sided: true}\n"
+      "free_space: {min: [-2, -2, 0.5], max: [2, 2, 2]}\n"
+      "route: [[0, 0, 1], [1, 0, 1], [1, 1, 1.1]]\n"
+      "motion: {mean_speed: 0.5, clearance: 0.33333333333333331}\n";
+  const auto description =
+      vilma::sim::ReadWorldDescription(vilma::YamlNode::LoadString(text, "w.yaml"));
+  const std::string yaml = vilma::sim::WorldDescriptionToYaml(description);
+  const auto back = vilma::sim::ReadWorldDescription(vilma::YamlNode::LoadString(yaml, "w2.yaml"));
+  CHECK(vilma::sim::WorldDescriptionToYaml(back) == yaml);
+  CHECK(back.name == "round trip");
+  CHECK(back.background == 50.5);
+  REQUIRE(back.rooms.size() == 1);
+  CHECK_FALSE(back.rooms[0].ceiling);
+  REQUIRE(back.boxes.size() == 1);
+  CHECK(back.boxes[0].yaw == 0.7);
+  REQUIRE(back.quads.size() == 1);
+  CHECK(back.quads[0].texture == "checker");
+  CHECK(back.quads[0].two_sided);
+  CHECK(back.motion.route_W.size() == 3);
+  CHECK(back.motion.clearance == 1.0 / 3.0);
+  CHECK(back.motion.free_space.max() == Vector3d(2, 2, 2));
+  // The same description and seed: the same world, quad for quad and texture for texture.
+  const World a = vilma::sim::BuildWorld(description, 5);
+  const World b = vilma::sim::BuildWorld(back, 5);
+  REQUIRE(a.quads.size() == b.quads.size());
+  for (std::size_t i = 0; i < a.quads.size(); ++i) {
+    CHECK(a.quads[i].origin_W == b.quads[i].origin_W);
+    CHECK(a.quads[i].edge_u_W == b.quads[i].edge_u_W);
+  }
+  REQUIRE(a.texture_specs.size() == b.texture_specs.size());
+  for (std::size_t i = 0; i < a.texture_specs.size(); ++i) {
+    CHECK(a.texture_specs[i].seed == b.texture_specs[i].seed);
+  }
+  // Unknown keys at every level name the key.
+  CHECK_THROWS_WITH(vilma::sim::ReadWorldDescription(vilma::YamlNode::LoadString(
+                        text + "motion_x: 1\n", "w.yaml")),
+                    Catch::Contains("w.yaml") && Catch::Contains("motion_x"));
+  CHECK_THROWS_WITH(vilma::sim::ReadWorldDescription(vilma::YamlNode::LoadString(
+                        "free_space: {min: [0, 0, 0], max: [1, 1, 1]}\nmotion: {speed: 1}\n",
+                        "w.yaml")),
+                    Catch::Contains("motion") && Catch::Contains("speed"));
 }

@@ -5,7 +5,6 @@
 #include <limits>
 
 #include "vilma/core/error.h"
-#include "vilma/core/yaml_io.h"
 #include "vilma/sim/random.h"
 
 namespace vilma {
@@ -299,10 +298,6 @@ World MakeStreet(uint64_t seed) {
   return w;
 }
 
-Vector3d ReadVec3(const YamlNode& node, const std::string& key) {
-  return node.GetVector(key, 3);
-}
-
 }  // namespace
 
 World MakePresetWorld(const std::string& name, uint64_t seed) {
@@ -312,69 +307,6 @@ World MakePresetWorld(const std::string& name, uint64_t seed) {
   if (name == "street") return MakeStreet(seed);
   throw InputError(FormatInputError("world", "preset", "one of room, room-fast, hall, street (got '" +
                                                            name + "')"));
-}
-
-World LoadWorldYaml(const std::string& path, uint64_t seed) {
-  const YamlNode root = YamlNode::LoadFile(path);
-  World w;
-  Rng rng(DeriveSeed(seed, 400));
-  w.name = root.GetOr<std::string>("name", "custom");
-  w.background_intensity = root.GetOr<double>("background", 200.0);
-  if (root.Has("rooms")) {
-    for (const YamlNode& r : root.Child("rooms").Elements()) {
-      w.AddRoomShell(ReadVec3(r, "min"), ReadVec3(r, "max"), r.GetOr<double>("texel_size", 0.015),
-                     rng.Next(), r.GetOr<bool>("ceiling", true));
-      r.CheckNoUnknownKeys();
-    }
-  }
-  if (root.Has("boxes")) {
-    for (const YamlNode& b : root.Child("boxes").Elements()) {
-      const Vector3d size = ReadVec3(b, "size");
-      if (size.minCoeff() <= 0.0) b.Fail("size", "positive box dimensions [m]");
-      w.AddBox(ReadVec3(b, "center"), size, b.GetOr<double>("yaw", 0.0),
-               b.GetOr<double>("texel_size", 0.015), rng.Next());
-      b.CheckNoUnknownKeys();
-    }
-  }
-  if (root.Has("quads")) {
-    for (const YamlNode& q : root.Child("quads").Elements()) {
-      const std::string kind_name = q.GetOr<std::string>("texture", "natural");
-      TextureKind kind = TextureKind::kNatural;
-      if (kind_name == "checker") kind = TextureKind::kChecker;
-      else if (kind_name == "uniform") kind = TextureKind::kUniform;
-      else if (kind_name != "natural") q.Fail("texture", "natural, checker or uniform");
-      w.AddQuad(ReadVec3(q, "origin"), ReadVec3(q, "edge_u"), ReadVec3(q, "edge_v"),
-                q.GetOr<double>("texel_size", 0.015), rng.Next(), q.GetOr<double>("mean", 128.0),
-                q.GetOr<double>("contrast", 1.0), q.GetOr<bool>("two_sided", false), kind);
-      q.CheckNoUnknownKeys();
-    }
-  }
-  const YamlNode fs = root.Child("free_space");
-  w.motion.free_space = Eigen::AlignedBox3d(ReadVec3(fs, "min"), ReadVec3(fs, "max"));
-  fs.CheckNoUnknownKeys();
-  if (root.Has("route")) {
-    for (const YamlNode& p : root.Child("route").Elements()) {
-      if (!p.IsSequence() || p.raw().size() != 3) p.Fail("", "a point [x, y, z]");
-      w.motion.route_W.emplace_back(p.raw()[0].as<double>(), p.raw()[1].as<double>(),
-                                    p.raw()[2].as<double>());
-    }
-  }
-  if (root.Has("motion")) {
-    const YamlNode m = root.Child("motion");
-    MotionHints& h = w.motion;
-    h.mean_speed = m.GetOr("mean_speed", h.mean_speed);
-    h.max_yaw_rate = m.GetOr("max_yaw_rate", h.max_yaw_rate);
-    h.roll_pitch_amplitude = m.GetOr("roll_pitch_amplitude", h.roll_pitch_amplitude);
-    h.mean_pitch = m.GetOr("mean_pitch", h.mean_pitch);
-    h.min_view_depth = m.GetOr("min_view_depth", h.min_view_depth);
-    h.max_view_depth = m.GetOr("max_view_depth", h.max_view_depth);
-    h.clearance = m.GetOr("clearance", h.clearance);
-    m.CheckNoUnknownKeys();
-  }
-  root.CheckNoUnknownKeys();
-  const std::string error = w.Validate();
-  if (!error.empty()) throw InputError(FormatInputError(path, "", error));
-  return w;
 }
 
 double DistanceToQuad(const Quad& quad, const Vector3d& p_W) {
