@@ -190,12 +190,7 @@ int main(int argc, char** argv) {
   const vilma::daemon::DaemonSummary summary = daemon->Run();
   finished.store(true);
   signal_thread.join();
-  std::cout << "vilma-estimatord: stopped: " << summary.frames_filtered << " frames, "
-            << summary.poses_published << " poses published, " << summary.malformed_messages
-            << " malformed messages, " << summary.drops << " drops\n"
-            << summary.report << std::flush;
-  if (summary.mapping)
-    std::cout << "vilma-estimatord: " << summary.map_report << "\n" << std::flush;
+  std::cout << summary.FullReport("vilma-estimatord: ") << std::flush;
   if (!summary.map_error.empty()) return kExitMapNotSaved;
   return kExitOk;
 }

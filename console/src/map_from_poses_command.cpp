@@ -113,7 +113,7 @@ int RunMapFromPosesCommand(const std::vector<std::string>& args, std::ostream& o
     const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
     if (!report.ok()) {
       err << "vilma map-from-poses: internal error, the map is not consistent:\n"
-          << report.ToString();
+          << report.FullReport();
       return kExitInputError;
     }
     mapstore::SaveMap(map, out_dir);

@@ -384,11 +384,11 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
       const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
       out << "vilma vio: map " << o.save_map_dir << " (mission " << builder->mission_id().Hex()
           << ")\n"
-          << builder->stats().ToString("  ") << "  builder wall     " << map_ms
+          << builder->stats().FullReport("  ") << "  builder wall     " << map_ms
           << " ms in AddFrame incl. loading the other cameras' images\n"
           << "  saved            " << saved.files_written << " files, " << saved.bytes_written
           << " bytes\n"
-          << "  consistency      " << report.ToString() << "\n";
+          << "  consistency      " << report.BriefReport() << "\n";
       if (!report.ok()) {
         err << "vilma vio: error: the built map is not consistent\n";
         return kExitInputError;

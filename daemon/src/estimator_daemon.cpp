@@ -162,4 +162,16 @@ DaemonSummary EstimatorDaemon::Run() {
   return summary;
 }
 
+std::string DaemonSummary::BriefReport() const {
+  return std::to_string(frames_filtered) + " frames, " + std::to_string(poses_published) +
+         " poses published, " + std::to_string(malformed_messages) + " malformed messages, " +
+         std::to_string(drops) + " drops";
+}
+
+std::string DaemonSummary::FullReport(const std::string& program) const {
+  std::string full = program + "stopped: " + BriefReport() + "\n" + report;
+  if (mapping) full += program + map_report + "\n";
+  return full;
+}
+
 }  // namespace vilma::daemon

@@ -144,7 +144,17 @@ const char* LocalizationStatusName(LocalizationStatus status) {
   return "unknown";
 }
 
-std::string LocalizerStats::ToString() const {
+std::string LocalizerStats::FullReport() const {
+  std::ostringstream ss;
+  ss << "queries " << queries << "\n";
+  for (int s = 0; s < static_cast<int>(LocalizationStatus::kNumStatuses); ++s) {
+    ss << "  " << LocalizationStatusName(static_cast<LocalizationStatus>(s)) << " "
+       << status_counts[s] << "\n";
+  }
+  return ss.str();
+}
+
+std::string LocalizerStats::BriefReport() const {
   std::ostringstream ss;
   ss << "queries " << queries;
   for (int s = 0; s < static_cast<int>(LocalizationStatus::kNumStatuses); ++s) {

@@ -31,7 +31,15 @@ constexpr int64_t kTrackIdsPerCamera = int64_t{1} << 40;
 
 }  // namespace
 
-std::string MapBuilderStats::ToString(const std::string& indent) const {
+std::string MapBuilderStats::BriefReport() const {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << vertices << " vertices, " << imu_edges
+    << " IMU edges, " << keypoints << " keypoints, " << landmarks << " landmarks ("
+    << landmarks_good << " good), " << vertex_ms_mean() << " ms per vertex";
+  return s.str();
+}
+
+std::string MapBuilderStats::FullReport(const std::string& indent) const {
   std::ostringstream s;
   s << std::fixed << std::setprecision(2);
   s << indent << "frames           " << frames << " (" << frames_skipped_rate

@@ -30,7 +30,15 @@ std::size_t ConsistencyReport::Count(ConsistencyProblemKind kind) const {
   return n;
 }
 
-std::string ConsistencyReport::ToString() const {
+std::string ConsistencyReport::BriefReport() const {
+  if (problems.empty()) return "map is consistent";
+  std::string first = problems.front().message;
+  first = first.substr(0, first.find('\n'));
+  return std::to_string(problems.size()) + " problem(s), first: " +
+         ConsistencyProblemKindName(problems.front().kind) + ": " + first;
+}
+
+std::string ConsistencyReport::FullReport() const {
   if (problems.empty()) return "map is consistent\n";
   std::ostringstream out;
   out << problems.size() << " problem(s):\n";

@@ -23,6 +23,7 @@
 #include "vilma/mapping/export/trajectory_export.h"
 #include "vilma/mapping/from_poses/map_from_poses.h"
 #include "vilma/mapping/from_poses/map_from_target.h"
+#include "vilma/mapping/inspection/map_statistics.h"
 #include "vilma/mapping/keyframing/keyframe_heuristic.h"
 #include "vilma/mapping/landmarks/landmark_quality.h"
 #include "vilma/mapping/landmarks/retriangulation.h"
@@ -48,7 +49,8 @@ TEMPLATE_TEST_CASE("result types: one-line BriefReport and a FullReport of whole
                    mapping::RetriangulationSummary, mapping::TrackLandmarkSummary,
                    mapping::AnchoringSummary, mapping::LoopClosureSummary,
                    mapping::ViOptimizationSummary, mapping::LandmarkSparsificationSummary,
-                   mapping::RelaxSummary, mapping::MapFromTargetSummary) {
+                   mapping::RelaxSummary, mapping::MapFromTargetSummary,
+                   mapping::MapStatistics) {
   STATIC_REQUIRE(HasReports<TestType>::value);
   const TestType result{};
   CHECK(ReportShapeError(result) == "");

@@ -152,7 +152,7 @@ TEST_CASE("map memory: a streamed mission releases acknowledged data and stays t
     if (i % 50 == 49) {
       // Every prefix of the stream is a map that mapstored could finalize (a crash).
       const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(receiver);
-      INFO("after vertex " << i << ": " << report.ToString());
+      INFO("after vertex " << i << ": " << report.FullReport());
       CHECK(report.ok());
       ++consistency_checks;
     }
@@ -188,7 +188,7 @@ TEST_CASE("map memory: a streamed mission releases acknowledged data and stays t
   CHECK(streamed.Held().edges == 0);
 
   const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(receiver);
-  INFO(report.ToString());
+  INFO(report.FullReport());
   CHECK(report.ok());
   CheckSameMission(whole.map(), receiver, whole.mission_id());
   // The counters of the two builds agree.

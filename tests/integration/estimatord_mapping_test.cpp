@@ -145,7 +145,7 @@ TEST_CASE("vilma-estimatord --input-log --save-map: a consistent map, the same o
     if (run == 0) {
       const VIMap map = mapstore::LoadMap(dir + "/map");
       const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
-      INFO(report.ToString());
+      INFO(report.FullReport());
       CHECK(report.ok());
       REQUIRE(map.mission_ids().size() == 1);
       const mapstore::Mission& mission = map.mission(map.mission_ids()[0]);
@@ -425,7 +425,7 @@ TEST_CASE("vilma-estimatord: a filter reset ends the mission, the next frames ar
 
     const VIMap map = mapstore::LoadMap(dir + "/map");
     const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
-    INFO(report.ToString());
+    INFO(report.FullReport());
     CHECK(report.ok());
     REQUIRE(map.mission_ids().size() == 2);
     CHECK_FALSE(map.mission_ids()[0] == map.mission_ids()[1]);

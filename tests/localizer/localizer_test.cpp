@@ -257,7 +257,7 @@ TEST_CASE("localizer: end to end on simulated room sessions (map from room-easy,
             << " ms, p90 " << Percentile(query_ms, 0.9) << " ms (thread CPU); wall p50 "
             << Percentile(wall_ms, 0.5) << " ms (matching " << Percentile(match_ms, 0.5)
             << " ms, pose " << Percentile(pose_ms, 0.5) << " ms)\n"
-            << "[localization e2e] " << stats.ToString() << std::endl;
+            << "[localization e2e] " << stats.BriefReport() << std::endl;
   CHECK(recall >= 0.8);
   CHECK(Percentile(pos_err, 0.5) < 0.05);
   CHECK(Percentile(rot_err_deg, 0.5) < 0.5);

@@ -92,7 +92,7 @@ TEST_CASE("map builder: keep_images stores every camera image of each vertex as 
     }
     builder.Finish();
     if (deltas != nullptr) deltas->push_back(builder.TakeDelta());
-    INFO(builder.stats().ToString());
+    INFO(builder.stats().FullReport());
     CHECK(builder.stats().images_kept == (keep_images ? 2 * vertices - 1 : 0));
     return builder.ReleaseMap();
   };
@@ -124,7 +124,7 @@ TEST_CASE("map builder: keep_images stores every camera image of each vertex as 
     }
   }
   CHECK(with_image == 23);
-  INFO(mapstore::CheckMapConsistency(map).ToString());
+  INFO(mapstore::CheckMapConsistency(map).FullReport());
   CHECK(mapstore::CheckMapConsistency(map).ok());
   // Deltas carry no resources, hence no image ids.
   for (const mapstore::MissionDelta& d : deltas) {

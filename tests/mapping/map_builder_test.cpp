@@ -285,7 +285,7 @@ TEST_CASE("map builder: IMU edges carry every sample exactly once", "[mapping]")
     REQUIRE(SameSample(interior[i], expected[i]));
   }
   const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
-  INFO(report.ToString());
+  INFO(report.FullReport());
   CHECK(report.ok());
 }
 
@@ -310,7 +310,7 @@ TEST_CASE("map builder: room session driven by ground truth", "[mapping][sim]") 
   }
   GtBuild a = BuildFromGroundTruth(dataset);
   const MapBuilderStats& s = a.stats;
-  INFO(s.ToString());
+  INFO(s.FullReport());
   CHECK(s.vertices >= 195);  // 20 s at 10 Hz (the filter-free run has a pose from the start)
   CHECK(s.imu_edges == s.vertices - 1);
   CHECK(s.imu_edges_held == 0);
@@ -332,7 +332,7 @@ TEST_CASE("map builder: room session driven by ground truth", "[mapping][sim]") 
 
   // Consistency, the delta stream, save / load, determinism.
   const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(a.map);
-  INFO(report.ToString());
+  INFO(report.FullReport());
   CHECK(report.ok());
   mapstore::VIMap from_deltas;
   for (const auto& d : a.deltas) {
@@ -377,7 +377,7 @@ TEST_CASE("map builder: room session driven by the VIO (vilma vio --save-map)", 
   const mapstore::VIMap map = mapstore::LoadMap(map_dir.string());
   {
     const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(map);
-    INFO(report.ToString());
+    INFO(report.FullReport());
     CHECK(report.ok());
   }
   // Align M to the simulator's world W: posyaw alignment of the VIO trajectory to ground truth.
@@ -461,7 +461,7 @@ TEST_CASE("map builder: compact maps keep every good landmark and drop free keyp
   const int min_observers = MapBuilderOptions().landmark_quality.min_observers;
   for (const std::string level : {"tracks", "good"}) {
     const GtBuild& compact = builds[level];
-    INFO(level << ": " << compact.stats.ToString());
+    INFO(level << ": " << compact.stats.FullReport());
     CHECK(compact.stats.short_tracks > 0);
     CHECK(compact.stats.keypoints_dropped > 0);
     CHECK(compact.stats.landmarks_good == builds["none"].stats.landmarks_good);

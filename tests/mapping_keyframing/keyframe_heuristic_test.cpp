@@ -121,7 +121,7 @@ TEST_CASE("KeyframeHeuristic merges vertices into a consistent map") {
   CHECK(observations(untouched) - observations(map) ==
         summary.missions[0].observations_removed + summary.missions[1].observations_removed);
 
-  INFO(mapstore::CheckMapConsistency(map).ToString());
+  INFO(mapstore::CheckMapConsistency(map).FullReport());
   CHECK(mapstore::CheckMapConsistency(map).ok());
   REQUIRE(summary.missions.size() == 2);
   CHECK(summary.vertices_before() == 50);

@@ -20,7 +20,7 @@ VIMap CleanMap() {
 // The injected fault is reported (with the given text) and nothing else of another kind.
 void RequireOnly(const VIMap& map, K kind, const std::string& text) {
   const ConsistencyReport report = CheckMapConsistency(map);
-  INFO(report.ToString());
+  INFO(report.FullReport());
   REQUIRE(report.Count(kind) >= 1);
   REQUIRE(report.Count(kind) == report.problems.size());
   bool mentioned = false;
@@ -32,9 +32,9 @@ void RequireOnly(const VIMap& map, K kind, const std::string& text) {
 TEST_CASE("a synthetic map is consistent", "[mapstore]") {
   const VIMap map = CleanMap();
   const ConsistencyReport report = CheckMapConsistency(map);
-  INFO(report.ToString());
+  INFO(report.FullReport());
   CHECK(report.ok());
-  CHECK(report.ToString() == "map is consistent\n");
+  CHECK(report.FullReport() == "map is consistent\n");
 }
 
 TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
@@ -52,17 +52,17 @@ TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
     CHECK(report.Count(K::kDuplicateId) == 1);
     CHECK(report.Count(K::kOrphanLandmark) == 1);  // it also has no observations
     CHECK(report.problems.size() == 2);
-    CHECK_THAT(report.ToString(), Catch::Contains("duplicate_id: landmark " + v0[5].Hex()));
+    CHECK_THAT(report.FullReport(), Catch::Contains("duplicate_id: landmark " + v0[5].Hex()));
   }
   SECTION("vertex with a wrong mission id") {
     map.vertex(v0[4]).mission_id = m1;
     const ConsistencyReport report = CheckMapConsistency(map);
-    INFO(report.ToString());
+    INFO(report.FullReport());
     CHECK(report.Count(K::kMissionMismatch) == 1);
     // Its IMU edges now join vertices of two missions, which breaks the chain.
     CHECK(report.Count(K::kMissionMismatch) + report.Count(K::kBrokenChain) ==
           report.problems.size());
-    CHECK_THAT(report.ToString(), Catch::Contains("vertex " + v0[4].Hex() + " is listed in"));
+    CHECK_THAT(report.FullReport(), Catch::Contains("vertex " + v0[4].Hex() + " is listed in"));
   }
   SECTION("landmark observation without back-reference") {
     const Vertex& v = map.vertex(v0[3]);
@@ -84,10 +84,10 @@ TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
     const EdgeId eid = map.edge_ids(m0)[0];
     map.edge(eid).to = IdGenerator(1234).Next();
     const ConsistencyReport report = CheckMapConsistency(map);
-    INFO(report.ToString());
+    INFO(report.FullReport());
     CHECK(report.Count(K::kBadReference) == 1);
     CHECK(report.Count(K::kBrokenChain) == 1);  // the chain stops at the root
-    CHECK_THAT(report.ToString(), Catch::Contains("ends at missing vertex"));
+    CHECK_THAT(report.FullReport(), Catch::Contains("ends at missing vertex"));
   }
   SECTION("chain broken by a missing IMU edge leaves an orphan vertex") {
     VIMap small = MakeSyntheticMap([] {
@@ -103,16 +103,16 @@ TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
     small.edge(edges.back()).from = small.vertex_ids(mid)[2];
     small.edge(edges.back()).to = small.vertex_ids(mid)[3];
     const ConsistencyReport report = CheckMapConsistency(small);
-    INFO(report.ToString());
+    INFO(report.FullReport());
     CHECK(report.Count(K::kBrokenChain) >= 1);
     CHECK(report.Count(K::kOrphanVertex) == 1);
-    CHECK_THAT(report.ToString(), Catch::Contains(small.vertex_ids(mid)[4].Hex() + " has no edge"));
+    CHECK_THAT(report.FullReport(), Catch::Contains(small.vertex_ids(mid)[4].Hex() + " has no edge"));
   }
   SECTION("IMU edge back in time") {
     std::swap(map.vertex(v0[6]).t_ns, map.vertex(v0[7]).t_ns);
     const ConsistencyReport report = CheckMapConsistency(map);
-    INFO(report.ToString());
-    CHECK_THAT(report.ToString(), Catch::Contains("goes back in time"));
+    INFO(report.FullReport());
+    CHECK_THAT(report.FullReport(), Catch::Contains("goes back in time"));
     CHECK(report.Count(K::kBrokenChain) >= 1);
   }
   SECTION("IMU samples not covering the edge") {

@@ -66,7 +66,7 @@ TEST_CASE("SplitMissionDelta: bounded parts, consistent prefixes, the same map",
     // Through the wire format, as mapstored applies them.
     ApplyMissionDelta(ParseMissionDelta(SerializeMissionDelta(parts[i]), "part"), &map);
     const ConsistencyReport report = CheckMapConsistency(map);
-    INFO(report.ToString());
+    INFO(report.FullReport());
     CHECK(report.ok());
   }
   VIMap direct = before.Clone();

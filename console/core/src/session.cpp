@@ -447,7 +447,7 @@ void ConsoleSession::RunCommand(const CommandSpec& spec, const std::vector<std::
       const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(working_copy);
       if (!report.ok()) {
         fail("the result is not a consistent map, so it was not applied (the map is unchanged):\n" +
-             report.ToString());
+             report.FullReport());
         return;
       }
     }

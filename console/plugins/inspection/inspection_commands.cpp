@@ -21,7 +21,7 @@ void Register(CommandRegistry* registry) {
           .Access(MapAccess::kRead)
           .Run([](CommandContext& c, const NoOptions&) {
             const mapping::MapStatistics stats = mapping::ComputeMapStatistics(c.map());
-            c.out() << "map " << c.map_key() << "\n" << stats.ToString();
+            c.out() << "map " << c.map_key() << "\n" << stats.FullReport();
             const std::string folder = c.maps().Get(c.map_key()).folder;
             if (!folder.empty()) {
               c.out() << "on disk " << std::fixed << std::setprecision(2)
@@ -54,7 +54,7 @@ void Register(CommandRegistry* registry) {
           .Access(MapAccess::kRead)
           .Run([](CommandContext& c, const NoOptions&) {
             const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(c.map());
-            c.out() << report.ToString() << "\n";
+            c.out() << report.FullReport() << "\n";
             if (!report.ok()) {
               throw CommandError(std::to_string(report.problems.size()) +
                                  " consistency problems");

@@ -486,7 +486,17 @@ ReplaySummary RunReplay(const AslDataset& dataset, const ReplayOptions& options,
   return summary;
 }
 
-std::string ReplaySummary::Report() const {
+std::string ReplaySummary::BriefReport() const {
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "%lld messages, %.2f MB, data span %.3f s, wall time %.3f s, %lld send "
+                "failures%s",
+                static_cast<long long>(messages), bytes * 1e-6, data_s, wall_s,
+                static_cast<long long>(send_failures), interrupted ? ", INTERRUPTED" : "");
+  return line;
+}
+
+std::string ReplaySummary::FullReport() const {
   std::ostringstream out;
   char line[256];
   std::snprintf(line, sizeof(line), "%-20s %10s %10s %10s %10s\n", "channel", "messages", "MB",
@@ -557,7 +567,7 @@ int ReplayMain(int argc, const char* const* argv, const std::atomic<bool>* stop)
     if (options.verbose) {
       std::cout << "vilma-replay: " << options.dataset
                 << (options.to_log.empty() ? "" : " -> " + options.to_log) << "\n"
-                << summary.Report();
+                << summary.FullReport();
       std::cout.flush();
     }
     return summary.send_failures > 0 ? 3 : 0;

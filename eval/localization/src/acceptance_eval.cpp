@@ -132,6 +132,27 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
   return q;
 }
 
+std::string AcceptanceSummary::BriefReport() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(1) << (name.empty() ? "queries" : name) << ": accepted "
+      << accepted << " of " << queries << " (wrong " << accepted_wrong << "), recall "
+      << 100.0 * recall << " % of " << possible << " possible";
+  return out.str();
+}
+
+std::string AcceptanceSummary::FullReport() const {
+  std::ostringstream out;
+  out << std::fixed << std::setprecision(3) << BriefReport() << "\n"
+      << "  median error " << median_position_error_m << " m / " << median_rotation_error_deg
+      << " deg (accepted)\n"
+      << "  worst wrong " << max_wrong_position_error_m << " m / " << max_wrong_rotation_error_deg
+      << " deg\n"
+      << "  localize p50 " << p50_localize_ms << " ms, max " << max_localize_ms
+      << " ms, pose p50 " << p50_pose_ms << " ms\n"
+      << "  statuses: " << stats.BriefReport() << "\n";
+  return out.str();
+}
+
 AcceptanceSummary SummarizeAcceptance(const std::string& name,
                                       const std::vector<AcceptanceQuery>& queries) {
   AcceptanceSummary s;

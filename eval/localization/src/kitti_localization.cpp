@@ -499,7 +499,7 @@ std::string KittiLocalizationReport::FullReport() const {
       << " m, " << median_rotation_error_deg << " deg\n";
   out << std::setprecision(1) << "query (match + pose) p50 " << p50_query_ms << " ms, p90 "
       << p90_query_ms << " ms; feature extraction p50 " << p50_extract_ms << " ms\n";
-  out << "statuses: " << stats.ToString() << "\n";
+  out << "statuses: " << stats.BriefReport() << "\n";
   return out.str();
 }
 

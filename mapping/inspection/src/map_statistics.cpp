@@ -121,7 +121,17 @@ MapStatistics ComputeMapStatistics(const VIMap& map) {
   return stats;
 }
 
-std::string MapStatistics::ToString() const {
+std::string MapStatistics::BriefReport() const {
+  char line[256];
+  std::snprintf(line, sizeof(line),
+                "%zu missions, %zu vertices, %zu landmarks (%zu good), %zu observations, "
+                "memory %.1f MB",
+                missions.size(), total.vertices, total.landmarks, total.landmarks_good,
+                total.observations, memory_bytes / 1e6);
+  return line;
+}
+
+std::string MapStatistics::FullReport() const {
   std::ostringstream out;
   char line[512];
   std::snprintf(line, sizeof(line), "%-10s %-16s %5s %7s %7s %6s %9s %8s %8s %8s %9s %9s %8s\n",

@@ -284,7 +284,7 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
   row("pose", pose_wall, pose_cpu);
   row("query (match + pose)", query_wall, query_cpu);
   std::cout << "  localized within 0.1 m: " << localized << "/" << kQueries << "; "
-            << stats.ToString() << "\n  matches: raw " << total_raw << ", after covisibility "
+            << stats.BriefReport() << "\n  matches: raw " << total_raw << ", after covisibility "
             << total_matches << ", inliers " << total_inliers << ", checksum " << std::hex
             << checksum << std::dec << "\n";
   std::cout.unsetf(std::ios::floatfield);

@@ -36,6 +36,12 @@ struct DaemonSummary {
   std::string map_error;         // why the map could not be saved ("" if it was or not asked)
   bool stream_finished = false;  // mapstored acknowledged the END of the mission
   std::string map_report;        // one line: vertices, landmarks, stream, save
+
+  // "N frames, P poses published, M malformed messages, D drops" (core/report.h's shape).
+  std::string BriefReport() const;
+  // "stopped: " + BriefReport(), the final counters ("name value" lines), and the map's line
+  // when mapping; `program` ("vilma-estimatord: ") goes before the first and the map line.
+  std::string FullReport(const std::string& program = "") const;
 };
 
 class EstimatorDaemon {

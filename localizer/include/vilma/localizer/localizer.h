@@ -101,7 +101,10 @@ struct LocalizerStats {
     ++queries;
     ++status_counts[static_cast<int>(result.status)];
   }
-  std::string ToString() const;
+  // "queries N, ok n, no_keypoints n, ..." on one line (core/report.h's shape).
+  std::string BriefReport() const;
+  // "queries N" and one "  status count" line per status.
+  std::string FullReport() const;
 };
 
 // Keeps the matches whose landmarks form the largest connected component of the graph in

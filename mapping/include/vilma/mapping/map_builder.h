@@ -98,8 +98,10 @@ struct MapBuilderStats {
   double finish_ms = 0.0;  // time in Finish() [ms]
 
   double vertex_ms_mean() const { return vertices > 0 ? vertex_ms_total / vertices : 0.0; }
-  // Multi-line human-readable summary (indented by `indent`).
-  std::string ToString(const std::string& indent = "  ") const;
+  // One line: vertices, IMU edges, keypoints, landmarks (good), time per vertex.
+  std::string BriefReport() const;
+  // Multi-line human-readable summary (each line indented by `indent`; core/report.h's shape).
+  std::string FullReport(const std::string& indent = "  ") const;
 };
 
 // The vertex-rate rule, the one copy of it (MapBuilder::WantsFrame and the daemon's thinning

@@ -33,8 +33,10 @@ struct ConsistencyReport {
   std::vector<ConsistencyProblem> problems;
   bool ok() const { return problems.empty(); }
   std::size_t Count(ConsistencyProblemKind kind) const;
-  // One line per problem ("kind: message"), or "map is consistent".
-  std::string ToString() const;
+  // "map is consistent" or "N problem(s), first: kind: message" (core/report.h's shape).
+  std::string BriefReport() const;
+  // One line per problem ("kind: message") after a count line, or "map is consistent".
+  std::string FullReport() const;
 };
 
 ConsistencyReport CheckMapConsistency(const VIMap& map);

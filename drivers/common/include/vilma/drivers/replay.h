@@ -101,8 +101,10 @@ struct ReplaySummary {
   double image_wait_ms = 0.0;    // total time spent waiting for decoded images [ms]
   bool interrupted = false;
 
+  // One line: messages, MB, data span, wall time (core/report.h's shape).
+  std::string BriefReport() const;
   // A human-readable table: messages, MB, duration, rates.
-  std::string Report() const;
+  std::string FullReport() const;
 };
 
 // Replays `dataset` into `sink`. Stops early when *stop becomes true (SIGINT). Throws

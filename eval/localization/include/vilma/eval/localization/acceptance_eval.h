@@ -105,6 +105,11 @@ struct AcceptanceSummary {
   LocalizerStats stats;
   // The residual noise model on the right accepted poses (chi^2 / dof ~ 1 when calibrated).
   NoiseCalibration noise;
+
+  // "name: accepted A (wrong W), recall R % of P possible" (core/report.h's shape).
+  std::string BriefReport() const;
+  // The summary's figures, one per line (the benchmark's table row has them in columns).
+  std::string FullReport() const;
 };
 
 AcceptanceSummary SummarizeAcceptance(const std::string& name,

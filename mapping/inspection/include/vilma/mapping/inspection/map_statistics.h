@@ -46,8 +46,10 @@ struct MapStatistics {
   std::size_t resources = 0;
   uint64_t memory_bytes = 0;  // estimate of the map's heap memory (vectors' capacities)
 
+  // One line: missions, vertices, landmarks (good), memory (core/report.h's shape).
+  std::string BriefReport() const;
   // The table of map_stats: one row per mission and a total row.
-  std::string ToString() const;
+  std::string FullReport() const;
   // mission_stats: every field of one mission, one per line.
   static std::string MissionReport(const MissionStatistics& m);
 };
