@@ -11,7 +11,8 @@
 #      0.2 m / 3 deg per keyframe), then the recipe `optvi; rtl; optvi; rtl; optvi; rtl; optvi`
 #      (elq with 2 observers: stereo keyframes); also the map from unperturbed ground truth
 #      through one optvi (how far the optimum lies from the ground truth).
-#   3. COLMAP: visual-only bundle adjustment, optv against colmap bundle_adjuster.
+#   3. COLMAP: visual-only bundle adjustment, optv against colmap bundle_adjuster and (like for
+#      like: the stereo pair held) colmap rig_bundle_adjuster.
 #   4. target: ../shared/data/euroc_imu_april (real hand-held motion and IMU, AprilGrid corners
 #      with known target coordinates): `load_target_recording` (corners held as landmarks, PnP
 #      poses) from EuRoC's calibration (config/euroc-rig.yaml), and from it moved by 2 cm / 2 deg,
@@ -231,6 +232,22 @@ rm -rf "$cmp" && mkdir -p "$cmp/ba"
   --output_path "$cmp/ba" --BundleAdjustment.refine_focal_length 0 \
   --BundleAdjustment.refine_extra_params 0 --BundleAdjustment.max_num_iterations 30 \
   > "$cmp/colmap.out" 2>&1
+# Like for like: vilma holds the stereo rig's extrinsics, so COLMAP's rig_bundle_adjuster with the
+# relative pose held (refine_relative_poses 0) solves the same problem. Its rig config groups images
+# into snapshots by the name after a per-camera prefix: <vertex>_cam<k>.png becomes cam<k>/<vertex>.png.
+mkdir -p "$cmp/rig-model" "$cmp/rig-ba"
+cp "$cmp/model/cameras.txt" "$cmp/model/points3D.txt" "$cmp/rig-model/"
+sed -E 's/^([0-9]+ ([^ ]+ ){8})([0-9a-f]+)_cam([0-9]+)\.png$/\1cam\4\/\3.png/' "$cmp/model/images.txt" \
+  > "$cmp/rig-model/images.txt"
+cat > "$cmp/rig.json" << 'RIG'
+[ { "ref_camera_id": 1,
+    "cameras": [ { "camera_id": 1, "image_prefix": "cam0/" }, { "camera_id": 2, "image_prefix": "cam1/" } ] } ]
+RIG
+/usr/bin/time -f "%e %M" -o "$cmp/colmap-rig.time" colmap rig_bundle_adjuster --input_path "$cmp/rig-model" \
+  --output_path "$cmp/rig-ba" --rig_config_path "$cmp/rig.json" --estimate_rig_relative_poses 1 \
+  --RigBundleAdjustment.refine_relative_poses 0 --BundleAdjustment.refine_focal_length 0 \
+  --BundleAdjustment.refine_extra_params 0 --BundleAdjustment.max_num_iterations 30 \
+  > "$cmp/colmap-rig.out" 2>&1
 console "$cmp/optv.console" "load $map; optv --ba_outlier_rejection=false --evaluate_quality=false"
 read -r colmap_s colmap_kb < "$cmp/colmap.time"
 colmap_iterations=$(awk '/Iterations :/ { print $3 }' "$cmp/colmap.out" | tail -1)
@@ -242,13 +259,20 @@ optv_before=$(echo "$optv_line" | grep -o 'RMSE [0-9.]* -> [0-9.]*' | awk '{ pri
 optv_after=$(echo "$optv_line" | grep -o 'RMSE [0-9.]* -> [0-9.]*' | awk '{ print $4 }')
 optv_iterations=$(echo "$optv_line" | grep -o 'in [0-9]* iterations' | awk '{ print $2 }')
 echo
-echo "### Visual-only bundle adjustment: vilma optv vs COLMAP bundle_adjuster (room, 1,796 images, 12,799 points, 149,410 observations)"
+echo "### Visual-only bundle adjustment: vilma optv vs COLMAP bundle_adjuster and rig_bundle_adjuster (room, 1,796 images, 12,799 points, 149,410 observations)"
 echo
 echo "| solver | iterations | wall [s] | s per iteration | RMSE per observation before -> after [px] | peak RSS [MB] |"
 echo "|---|---:|---:|---:|---|---:|"
 printf '| COLMAP 3.8 bundle_adjuster (2 threads) | %s | %s | %s | %s -> %s | %s |\n' "$colmap_iterations" \
   "$colmap_s" "$(awk -v s="$colmap_s" -v n="$colmap_iterations" 'BEGIN { printf "%.2f", s / n }')" \
   "$(fmt "$colmap_initial" 1 3)" "$(fmt "$colmap_final" 1 3)" "$(awk -v k="$colmap_kb" 'BEGIN { printf "%.0f", k / 1024 }')"
+read -r rig_s rig_kb < "$cmp/colmap-rig.time"
+rig_iterations=$(awk '/Iterations :/ { print $3 }' "$cmp/colmap-rig.out" | tail -1)
+rig_initial=$(awk '/Initial cost :/ { print 2 * $4 }' "$cmp/colmap-rig.out" | tail -1)
+rig_final=$(awk '/Final cost :/ { print 2 * $4 }' "$cmp/colmap-rig.out" | tail -1)
+printf '| COLMAP 3.8 rig_bundle_adjuster, stereo pair held (2 threads) | %s | %s | %s | %s -> %s | %s |\n' "$rig_iterations" \
+  "$rig_s" "$(awk -v s="$rig_s" -v n="$rig_iterations" 'BEGIN { printf "%.2f", s / n }')" \
+  "$(fmt "$rig_initial" 1 3)" "$(fmt "$rig_final" 1 3)" "$(awk -v k="$rig_kb" 'BEGIN { printf "%.0f", k / 1024 }')"
 printf '| vilma optv (1 thread) | %s | %s | %s | %s -> %s | %s |\n' "$optv_iterations" \
   "$(fmt "$optv_s" 1 1)" "$(awk -v s="$optv_s" -v n="$optv_iterations" 'BEGIN { printf "%.2f", s / n }')" \
   "$(fmt "$optv_before" 1 3)" "$(fmt "$optv_after" 1 3)" \
