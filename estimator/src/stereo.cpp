@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <vector>
 
 #include "vilma/estimator/filter_state.h"
 
@@ -35,6 +36,55 @@ double MeanAbsResidual(const MultilevelPatch& patch, const ImagePyramid& pyramid
   return r->cwiseAbs().mean();
 }
 
+// 2. and 3. for one candidate sample of the curve: 2D alignment from it (sub-pixel, corrects
+// small calibration errors), then rho of the curve point nearest to the aligned pixel
+// (Gauss-Newton on min_rho |pi2(R mu + rho p) - pixel|^2, step (J_rho^T e) / (J_rho^T J_rho)).
+StereoMatch RefineCandidate(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
+                            const ImagePyramid& pyramid2, const Camera& camera2,
+                            const Transformation& T_C2_C1, const Eigen::Vector3d& mu_C1,
+                            const StereoMatchOptions& options, double sample_rho) {
+  StereoMatch match;
+  OtherCameraPrediction p;
+  if (!PredictInOtherCamera(camera2, T_C2_C1, mu_C1, sample_rho, &p)) {
+    match.failure = StereoMatchFailure::kNoSample;
+    return match;
+  }
+  const Eigen::Matrix2d W = p.J_pixel_bearing * D;
+  const AlignmentResult aligned =
+      AlignPatch(patch, pyramid2, p.pixel, W, options.photometric, options.align_iterations);
+  match.pixel = aligned.pixel;
+  match.mean_abs_error = aligned.mean_abs_error;
+  if (!aligned.converged) {
+    match.failure = StereoMatchFailure::kNotConverged;
+    return match;
+  }
+  if (aligned.mean_abs_error > options.max_match_error) {
+    match.failure = StereoMatchFailure::kResidual;
+    return match;
+  }
+  match.failure = StereoMatchFailure::kNoDepth;
+  double rho = sample_rho;
+  for (int it = 0; it < 10; ++it) {
+    if (!PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) return match;
+    const double jj = p.J_pixel_rho.squaredNorm();
+    if (jj < 1e-12) return match;  // no baseline along the view: rho unobservable
+    const double step = p.J_pixel_rho.dot(aligned.pixel - p.pixel) / jj;
+    rho += step;
+    if (std::abs(step) * std::sqrt(jj) < 1e-3) break;
+  }
+  if (!(rho >= 0.0) || !PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) return match;
+  match.rho = rho;
+  if ((aligned.pixel - p.pixel).norm() > options.max_epipolar_px) {
+    match.failure = StereoMatchFailure::kEpipolar;
+    return match;
+  }
+  match.found = true;
+  match.failure = StereoMatchFailure::kNone;
+  match.rho_sigma =
+      std::max(options.min_inverse_depth_sigma, options.pixel_sigma / p.J_pixel_rho.norm());
+  return match;
+}
+
 }  // namespace
 
 StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
@@ -55,52 +105,50 @@ StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix
                                         : 4.0 * options.search_step_px;
   const int steps = std::clamp(static_cast<int>(std::ceil(length_px / options.search_step_px)), 1, 400);
 
-  // 1. Coarse search along the curve: the sample with the lowest mean |residual|.
+  // 1. Coarse search along the curve: the mean |residual| of every sample; its local minima
+  //    are the candidates, lowest first. Measured on the simulator's perfect renders
+  //    (tests/estimator/stereo_sim_test.cpp, docs/estimator.md "Why stereo matches fail"):
+  //    taking only the global minimum lost most matches to a false minimum at the near end
+  //    (rho 1.4..4.3 1/m, where the curve sweeps fast over repetitive texture); the 2D
+  //    alignment from there slid along the texture, off the curve, and was rejected.
   Eigen::VectorXd r;
   Eigen::Matrix<double, Eigen::Dynamic, 2> J;
-  double best_error = std::numeric_limits<double>::infinity();
-  double best_rho = 0.0;
+  std::vector<double> errors(static_cast<std::size_t>(steps) + 1,
+                             std::numeric_limits<double>::infinity());
   OtherCameraPrediction p;
   for (int k = 0; k <= steps; ++k) {
     const double rho = options.max_inverse_depth * static_cast<double>(k) / steps;
     if (!PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) continue;
     const Eigen::Matrix2d W = p.J_pixel_bearing * D;  // A = I at extraction
-    const double e = MeanAbsResidual(patch, pyramid2, p.pixel, W, options.photometric, &r, &J);
-    if (e < best_error) {
-      best_error = e;
-      best_rho = rho;
-    }
+    errors[static_cast<std::size_t>(k)] =
+        MeanAbsResidual(patch, pyramid2, p.pixel, W, options.photometric, &r, &J);
   }
-  if (!std::isfinite(best_error)) return match;
-
-  // 2. 2D alignment from the best sample (sub-pixel, corrects small calibration errors).
-  PredictInOtherCamera(camera2, T_C2_C1, mu_C1, best_rho, &p);
-  const Eigen::Matrix2d W = p.J_pixel_bearing * D;
-  const AlignmentResult aligned =
-      AlignPatch(patch, pyramid2, p.pixel, W, options.photometric, options.align_iterations);
-  if (!aligned.converged || aligned.mean_abs_error > options.max_match_error) return match;
-
-  // 3. rho of the curve point nearest to the aligned pixel: Gauss-Newton on
-  //    min_rho |pi2(R mu + rho p) - pixel|^2, step (J_rho^T e) / (J_rho^T J_rho).
-  double rho = best_rho;
-  for (int it = 0; it < 10; ++it) {
-    if (!PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) return match;
-    const double jj = p.J_pixel_rho.squaredNorm();
-    if (jj < 1e-12) return match;  // no baseline along the view: rho unobservable
-    const double step = p.J_pixel_rho.dot(aligned.pixel - p.pixel) / jj;
-    rho += step;
-    if (std::abs(step) * std::sqrt(jj) < 1e-3) break;
+  std::vector<int> candidates;
+  for (int k = 0; k <= steps; ++k) {
+    const double e = errors[static_cast<std::size_t>(k)];
+    if (!std::isfinite(e)) continue;
+    const bool left_ok = k == 0 || !(errors[static_cast<std::size_t>(k - 1)] < e);
+    const bool right_ok = k == steps || !(errors[static_cast<std::size_t>(k + 1)] <= e);
+    if (left_ok && right_ok) candidates.push_back(k);
   }
-  if (!(rho >= 0.0) || !PredictInOtherCamera(camera2, T_C2_C1, mu_C1, rho, &p)) return match;
-  const double epipolar_px = (aligned.pixel - p.pixel).norm();
-  if (epipolar_px > options.max_epipolar_px) return match;
-  match.found = true;
-  match.rho = rho;
-  match.rho_sigma =
-      std::max(options.min_inverse_depth_sigma, options.pixel_sigma / p.J_pixel_rho.norm());
-  match.pixel = aligned.pixel;
-  match.mean_abs_error = aligned.mean_abs_error;
-  return match;
+  if (candidates.empty()) {
+    match.failure = StereoMatchFailure::kNoSample;
+    return match;
+  }
+  std::sort(candidates.begin(), candidates.end(), [&](int a, int b) {
+    return errors[static_cast<std::size_t>(a)] < errors[static_cast<std::size_t>(b)];
+  });
+  const std::size_t tries =
+      std::min(candidates.size(), static_cast<std::size_t>(std::max(options.max_candidates, 1)));
+  StereoMatch first_failure;
+  for (std::size_t c = 0; c < tries; ++c) {
+    const double sample_rho = options.max_inverse_depth * candidates[c] / steps;
+    const StereoMatch m = RefineCandidate(patch, D, pyramid2, camera2, T_C2_C1, mu_C1, options,
+                                          sample_rho);
+    if (m.found) return m;
+    if (c == 0) first_failure = m;
+  }
+  return first_failure;
 }
 
 }  // namespace vilma::estimator

@@ -148,6 +148,7 @@ void VioFilter::InitializeDepthFromStereo(int slot) {
                                                second_camera_.camera, T_C2_C1_, f.mu_C, mo);
   if (!match.found) {
     ++stats_.stereo_match_failures;
+    ++stats_.stereo_match_failure_reasons[static_cast<std::size_t>(match.failure)];
     return;
   }
   ++stats_.stereo_matches;

@@ -53,11 +53,25 @@ struct StereoMatchOptions {
   double pixel_sigma = 0.5;        // [px]
   double min_inverse_depth_sigma = 0.02;  // [1/m]
   int align_iterations = 10;
+  int max_candidates = 3;  // local minima of the coarse search tried, lowest residual first
   PhotometricOptions photometric;
 };
 
+// Why a match was not accepted (counted per reason in FilterStats: the diagnosis of
+// docs/estimator.md "Why stereo matches fail").
+enum class StereoMatchFailure {
+  kNone = 0,
+  kNoSample,         // no point of the searched curve projects into camera 2 with a full patch
+  kNotConverged,     // the 2D alignment from the best sample did not converge
+  kResidual,         // converged, mean |residual| above max_match_error
+  kNoDepth,          // no rho >= 0 on the curve near the aligned pixel (or no baseline)
+  kEpipolar,         // the aligned pixel is more than max_epipolar_px off the curve
+};
+constexpr int kNumStereoMatchFailures = 6;
+
 struct StereoMatch {
   bool found = false;
+  StereoMatchFailure failure = StereoMatchFailure::kNone;
   double rho = 0.0;         // inverse distance along mu in camera 1 [1/m]
   double rho_sigma = 0.0;   // its std from pixel_sigma [1/m]
   Eigen::Vector2d pixel = Eigen::Vector2d::Zero();  // aligned pixel in camera 2
@@ -67,7 +81,8 @@ struct StereoMatch {
 // Initial inverse distance of a new feature from the second image: the patch (extracted in
 // camera 1 at bearing mu, tangent-from-pixel D) is compared along the epipolar curve
 // pi_2(R mu + rho p) for rho in [0, max_inverse_depth] at steps of about search_step_px, the
-// best sample is aligned in 2D (AlignPatch), and rho is the least-squares point of the curve
+// local minima of the residual along it (up to max_candidates, lowest first) are aligned in 2D
+// (AlignPatch) until one is accepted, and rho is the least-squares point of the curve
 // nearest to the aligned pixel (Gauss-Newton in rho). Accepted when the alignment converged
 // with a mean |residual| <= max_match_error and the pixel is within max_epipolar_px of the
 // curve. rho_sigma = pixel_sigma / |d pixel / d rho| (at least min_inverse_depth_sigma).

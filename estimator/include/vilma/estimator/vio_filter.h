@@ -8,6 +8,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
@@ -21,6 +22,7 @@
 #include "vilma/estimator/image_pyramid.h"
 #include "vilma/estimator/multilevel_patch.h"
 #include "vilma/estimator/propagation.h"
+#include "vilma/estimator/stereo.h"
 #include "vilma/estimator/vi_initializer.h"
 
 namespace vilma::estimator {
@@ -62,6 +64,8 @@ struct FilterStats {
   int64_t stereo_rejections = 0;   // tried there, gated out / failed
   int64_t stereo_matches = 0;      // new features with rho from a stereo match
   int64_t stereo_match_failures = 0;  // new features left at features.init_inverse_depth
+  // stereo_match_failures by reason, indexed by StereoMatchFailure (index 0 unused).
+  std::array<int64_t, kNumStereoMatchFailures> stereo_match_failure_reasons{};
 };
 
 // A start from a known state (ground truth or a previous run: the usual way to evaluate VIO),
