@@ -60,8 +60,7 @@ int main(int argc, char** argv) {
   }
   try {
     const vilma::LogJsonStats stats = vilma::WriteLogJson(log_path, regex, std::cout);
-    std::cerr << "vilma-lcm-json: " << stats.status << " status_t, " << stats.poses
-              << " pose_t, " << stats.skipped << " other events skipped\n";
+    std::cerr << "vilma-lcm-json: " << stats.BriefReport() << "\n";
     if (stats.status + stats.poses == 0) {
       std::cerr << "vilma-lcm-json: " << log_path << ": no status_t or pose_t event on channels '"
                 << channels << "'\n";

@@ -71,8 +71,7 @@ int main(int argc, char** argv) {
       vilma::LocalizationLogStats stats;
       const vilma::Trajectory trajectory = vilma::ReadLocalizationLog(log_path, channel, &stats);
       vilma::WriteTrajectoryFile(out_path, trajectory, vilma::TrajectoryFormat::kTum);
-      std::cout << "attempts " << stats.attempts << ", with pose " << stats.with_pose
-                << ", accepted " << stats.accepted << "\n";
+      std::cout << stats.BriefReport() << "\n";
       std::cerr << "vilma-lcm-poses: " << trajectory.size() << " localization poses from " << channel
                 << " (" << stats.malformed << " malformed skipped) -> " << out_path << "\n";
       return 0;
@@ -81,8 +80,7 @@ int main(int argc, char** argv) {
     const vilma::Trajectory trajectory = vilma::ReadPoseLog(log_path, channel, all, &stats);
     if (trajectory.empty()) {
       std::cerr << "vilma-lcm-poses: " << log_path << ": no usable pose_t on channel " << channel
-                << " (" << stats.events_on_channel << " messages, " << stats.malformed
-                << " malformed, " << stats.not_valid << " not valid)\n";
+                << " (" << stats.BriefReport() << ")\n";
       return 1;
     }
     vilma::WriteTrajectoryFile(out_path, trajectory, vilma::TrajectoryFormat::kTum);

@@ -4,10 +4,13 @@
 #include <catch2/catch.hpp>
 
 #include "vilma/core/report.h"
+#include "vilma/drivers/log_json.h"
+#include "vilma/drivers/pose_log.h"
 #include "vilma/drivers/replay.h"
 
 TEMPLATE_TEST_CASE("result types of drivers: one-line BriefReport and a FullReport of whole lines",
-                   "[report]", vilma::ReplaySummary) {
+                   "[report]", vilma::ReplaySummary, vilma::PoseLogStats,
+                   vilma::LocalizationLogStats, vilma::LogJsonStats) {
   STATIC_REQUIRE(vilma::HasReports<TestType>::value);
   const TestType result{};
   CHECK(vilma::ReportShapeError(result) == "");

@@ -96,4 +96,9 @@ LogJsonStats WriteLogJson(const std::string& path, const std::regex& channel_reg
   return stats;
 }
 
+std::string LogJsonStats::BriefReport() const {
+  return std::to_string(status) + " status_t, " + std::to_string(poses) + " pose_t, " +
+         std::to_string(skipped) + " other events skipped";
+}
+
 }  // namespace vilma

@@ -113,4 +113,19 @@ Trajectory ReadLocalizationLog(const std::string& path, const std::string& chann
   return trajectory;
 }
 
+std::string PoseLogStats::BriefReport() const {
+  return std::to_string(events_on_channel) + " messages, " + std::to_string(malformed) +
+         " malformed, " + std::to_string(not_valid) + " not valid";
+}
+
+std::string LocalizationLogStats::BriefReport() const {
+  return "attempts " + std::to_string(attempts) + ", with pose " + std::to_string(with_pose) +
+         ", accepted " + std::to_string(accepted);
+}
+
+std::string LocalizationLogStats::FullReport() const {
+  return BriefReport() + "\n" + std::to_string(events_on_channel) + " messages on the channel, " +
+         std::to_string(malformed) + " malformed skipped\n";
+}
+
 }  // namespace vilma

@@ -15,6 +15,10 @@ struct LogJsonStats {
   int64_t status = 0;          // written as vilma.status_t
   int64_t poses = 0;           // written as vilma.pose_t
   int64_t skipped = 0;         // neither type (by the LCM fingerprint) or corrupted
+
+  // "S status_t, P pose_t, K other events skipped" (core/report.h's shape).
+  std::string BriefReport() const;
+  std::string FullReport() const { return BriefReport() + "\n"; }
 };
 
 // One line per event whose channel matches `channel_regex` (the whole name) and that decodes

@@ -14,6 +14,10 @@ struct PoseLogStats {
   int64_t events_on_channel = 0;  // messages seen on the channel
   int64_t malformed = 0;          // did not decode as pose_t, or non-finite values: skipped
   int64_t not_valid = 0;          // status INVALID / INITIALIZING: skipped unless asked for
+
+  // "N messages, M malformed, V not valid" (core/report.h's shape).
+  std::string BriefReport() const;
+  std::string FullReport() const { return BriefReport() + "\n"; }
 };
 
 // Reads every pose_t on `channel` of the log at `path`, in log order; stamps are the messages'
@@ -31,6 +35,11 @@ struct LocalizationLogStats {
   int64_t attempts = 0;   // decodable localization_t messages (one per attempt)
   int64_t with_pose = 0;  // status "ok" (the library found a pose)
   int64_t accepted = 0;   // decision "accepted" (used for T_G_M by vilma-estimatord)
+
+  // "attempts A, with pose P, accepted C" (what vilma-lcm-poses prints; core/report.h's shape).
+  std::string BriefReport() const;
+  // BriefReport() and the messages seen / malformed.
+  std::string FullReport() const;
 };
 
 // The vilma.localization_t attempts on `channel` (VILMA_LOC) that have a pose (status "ok"),
