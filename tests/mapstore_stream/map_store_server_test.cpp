@@ -521,3 +521,50 @@ TEST_CASE("mission stream benchmark: journal throughput, finalization, recovery"
                 static_cast<int>(server.counters().fsyncs), recovery_s, finalize_s);
   }
 }
+
+// Issue 18: what the server keeps for a mission in flight must not grow with the mission.
+// A long mission over a lossy, reordering link: the reorder buffer never holds more than its
+// bound, nothing is held once the mission ends, and the mission is stored exactly.
+TEST_CASE("a long mission's server state stays bounded", "[mapstore_stream]") {
+  SyntheticMissionOptions mo;
+  mo.vertices = 3000;
+  mo.vertices_per_delta = 1;
+  mo.keypoints_per_frame = 2;
+  mo.landmarks_per_vertex = 1;
+  const auto deltas = MakeSyntheticMissionDeltas(mo);
+  const MissionId id = deltas[0].mission.id;
+
+  LossyLink<vilma::mission_chunk_t> chunks(21, 0.1, 0.05);
+  LossyLink<vilma::mission_ack_t> acks(22, 0.1, 0.05);
+  MapStoreServerOptions so;
+  so.root = FreshRoot("long");
+  so.max_reorder_chunks = 8;
+  MapStoreServer server(so, [&](const vilma::mission_ack_t& a) { acks.Push(a); }, {});
+  server.Start();
+  MissionStreamSender sender(id, mo.name, FastSender(), [&](const vilma::mission_chunk_t& c) { chunks.Push(c); });
+
+  std::size_t next = 0, max_held = 0, max_open = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (!sender.finished() && std::chrono::steady_clock::now() < deadline) {
+    while (next < deltas.size() && sender.Send(deltas[next])) ++next;
+    if (next == deltas.size()) sender.End();
+    chunks.DeliverAll([&](const vilma::mission_chunk_t& c) {
+      server.OnChunk(c);
+      max_held = std::max(max_held, server.reorder_chunks_held());
+    });
+    max_open = std::max(max_open, server.missions_open());
+    server.Flush();
+    acks.DeliverAll([&](const vilma::mission_ack_t& a) { sender.OnAck(a); });
+    sender.Poll();
+  }
+  REQUIRE(sender.finished());
+  CHECK(server.counters().chunks_out_of_order > 0);
+  CHECK(max_held > 0);
+  CHECK(max_held <= so.max_reorder_chunks);
+  CHECK(max_open == 1);
+  CHECK(server.reorder_chunks_held() == 0);
+  CHECK(server.reorder_bytes_held() == 0);
+  CHECK(server.missions_open() == 0);
+  CHECK(server.done_missions_remembered() == 1);
+  RequireMapsEqual(Expected(deltas, true), LoadMap(server.MissionFolder(id)));
+}

@@ -132,6 +132,18 @@ MapStoreServer::~MapStoreServer() = default;
 
 std::string MapStoreServer::JournalDir() const { return options_.root + "/.journal"; }
 
+std::size_t MapStoreServer::reorder_chunks_held() const {
+  std::size_t n = 0;
+  for (const auto& kv : missions_) n += kv.second->reorder.size();
+  return n;
+}
+
+std::size_t MapStoreServer::reorder_bytes_held() const {
+  std::size_t n = 0;
+  for (const auto& kv : missions_) n += kv.second->reorder_bytes;
+  return n;
+}
+
 std::string MapStoreServer::MissionFolder(const MissionId& mission_id) const {
   const auto it = done_.find(mission_id);
   return it == done_.end() ? std::string() : options_.root + "/" + it->second.folder;

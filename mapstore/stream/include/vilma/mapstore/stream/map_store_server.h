@@ -97,6 +97,11 @@ class MapStoreServer {
   bool FinalizeIncomplete(const MissionId& mission_id);
 
   std::size_t missions_open() const { return missions_.size(); }
+  // State held for missions in flight, for tests that a long mission's state stays bounded
+  // (issue 18): chunks waiting in reorder buffers, their payload bytes, done-mission records.
+  std::size_t reorder_chunks_held() const;
+  std::size_t reorder_bytes_held() const;
+  std::size_t done_missions_remembered() const { return done_.size(); }
   const MapStoreServerCounters& counters() const { return counters_; }
   // Folder of a finished mission ("" if not finished).
   std::string MissionFolder(const MissionId& mission_id) const;
