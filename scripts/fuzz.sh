@@ -140,6 +140,9 @@ export build_dir work_dir minutes runs repo_dir timeout_s
 mkdir -p "$work_dir"
 echo "| harness | executions | exec/s | corpus | crashes | timeouts | oom | leaks | stalls | result |"
 echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"
-printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one {}' | sort > "$work_dir/last-table.txt" || true
+# Rows in the order the harnesses finish (a long campaign's finished rows are readable before
+# the last harness ends), then sorted.
+printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one {}' |
+  tee "$work_dir/rows-as-finished.txt" | sort > "$work_dir/last-table.txt" || true
 cat "$work_dir/last-table.txt"
 ! grep -q FOUND "$work_dir/last-table.txt"
