@@ -1,10 +1,10 @@
 #include "vilma/mapping/map_builder_options.h"
 
-#include <charconv>
 #include <cmath>
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 
 namespace vilma::mapping {
 namespace {
@@ -14,11 +14,21 @@ std::string Check(bool ok, const std::string& field, const std::string& expectat
 }
 bool Finite(double v) { return std::isfinite(v); }
 
-std::string Num(double v) {
-  // Shortest text that reads back to the same double.
-  char buffer[64];
-  const auto r = std::to_chars(buffer, buffer + sizeof(buffer), v);
-  return std::string(buffer, r.ptr);
+// One list of the fields (core/options_fields.h) but `features`, which has its own reader.
+template <typename Options, typename Visitor>
+void VisitMapBuilderFields(Options& o, Visitor&& v) {
+  v("", "vertex_rate_hz", o.vertex_rate_hz);
+  v("", "cameras", o.cameras);
+  v("", "compact", o.compact);
+  v("", "keep_images", o.keep_images);
+  v("triangulation", "max_iterations", o.triangulation.max_iterations);
+  v("triangulation", "convergence_step_m", o.triangulation.convergence_step_m);
+  v("triangulation", "keypoint_sigma_px", o.triangulation.keypoint_sigma_px);
+  v("landmark_quality", "min_observers", o.landmark_quality.min_observers);
+  v("landmark_quality", "min_observation_angle_deg", o.landmark_quality.min_observation_angle_deg);
+  v("landmark_quality", "min_distance_m", o.landmark_quality.min_distance_m);
+  v("landmark_quality", "max_distance_m", o.landmark_quality.max_distance_m);
+  v("landmark_quality", "max_reprojection_error_px", o.landmark_quality.max_reprojection_error_px);
 }
 
 }  // namespace
@@ -75,32 +85,10 @@ std::string MapBuilderOptions::Validate() const {
 MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {
   if (!root.IsMap()) root.Fail("", "a map of map builder options");
   MapBuilderOptions o;
-  o.vertex_rate_hz = root.Get<double>("vertex_rate_hz");
-  const YamlNode cameras = root.Child("cameras");
-  if (!cameras.IsSequence()) root.Fail("cameras", "a list of camera indices ([] for all)");
-  for (const YamlNode& c : cameras.Elements()) {
-    try {
-      o.cameras.push_back(c.raw().as<int>());
-    } catch (const std::exception&) {
-      root.Fail("cameras", "a list of integer camera indices");
-    }
-  }
+  // The features section has its own reader (and writer); the other fields are the list.
   o.features = localizer::ReadKeyframeFeatureOptions(root.Child("features"));
-  const YamlNode t = root.MapChild("triangulation");
-  o.triangulation.max_iterations = t.Get<int>("max_iterations");
-  o.triangulation.convergence_step_m = t.Get<double>("convergence_step_m");
-  o.triangulation.keypoint_sigma_px = t.Get<double>("keypoint_sigma_px");
-  t.CheckNoUnknownKeys();
-  const YamlNode q = root.MapChild("landmark_quality");
-  o.landmark_quality.min_observers = q.Get<int>("min_observers");
-  o.landmark_quality.min_observation_angle_deg = q.Get<double>("min_observation_angle_deg");
-  o.landmark_quality.min_distance_m = q.Get<double>("min_distance_m");
-  o.landmark_quality.max_distance_m = q.Get<double>("max_distance_m");
-  o.landmark_quality.max_reprojection_error_px = q.Get<double>("max_reprojection_error_px");
-  q.CheckNoUnknownKeys();
-  o.compact = root.Get<std::string>("compact");
-  o.keep_images = root.Get<bool>("keep_images");
-  root.CheckNoUnknownKeys();
+  ReadOptionFields(root, MissingKey::kRequired, &o,
+                   [](auto& options, auto&& v) { VisitMapBuilderFields(options, v); });
   root.CheckValid(o.Validate());
   return o;
 }
@@ -116,27 +104,10 @@ MapBuilderOptions LoadMapBuilderOptions(const std::string& path) {
 
 std::string MapBuilderOptionsToYaml(const MapBuilderOptions& o) {
   std::ostringstream out;
-  out << "vertex_rate_hz: " << Num(o.vertex_rate_hz) << "\n";
-  out << "cameras: [";
-  for (std::size_t i = 0; i < o.cameras.size(); ++i) out << (i ? ", " : "") << o.cameras[i];
-  out << "]\n";
+  out << OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitMapBuilderFields(options, v); });
   out << "features:\n";
   std::istringstream features(localizer::KeyframeFeatureOptionsToYaml(o.features));
   for (std::string line; std::getline(features, line);) out << "  " << line << "\n";
-  out << "triangulation:\n"
-      << "  max_iterations: " << o.triangulation.max_iterations << "\n"
-      << "  convergence_step_m: " << Num(o.triangulation.convergence_step_m) << "\n"
-      << "  keypoint_sigma_px: " << Num(o.triangulation.keypoint_sigma_px) << "\n";
-  out << "landmark_quality:\n"
-      << "  min_observers: " << o.landmark_quality.min_observers << "\n"
-      << "  min_observation_angle_deg: " << Num(o.landmark_quality.min_observation_angle_deg)
-      << "\n"
-      << "  min_distance_m: " << Num(o.landmark_quality.min_distance_m) << "\n"
-      << "  max_distance_m: " << Num(o.landmark_quality.max_distance_m) << "\n"
-      << "  max_reprojection_error_px: " << Num(o.landmark_quality.max_reprojection_error_px)
-      << "\n";
-  out << "compact: \"" << o.compact << "\"\n";
-  out << "keep_images: " << (o.keep_images ? "true" : "false") << "\n";
   return out.str();
 }
 

@@ -17,12 +17,13 @@
 //       values (doubles as their shortest round-trip text, strings quoted).
 // So reader and writer cannot drift apart, and every options file round-trips.
 // Field types: bool, int, int64_t, uint64_t (written and read as a non-negative integer),
-// double, std::string.
+// double, std::string, std::vector<int> (a flow list "[1, 0]").
 #pragma once
 
 #include <algorithm>
 #include <charconv>
 #include <cstdint>
+#include <exception>
 #include <optional>
 #include <sstream>
 #include <string>
@@ -50,6 +51,17 @@ void ReadField(const YamlNode& node, const char* key, MissingKey missing, T* fie
     const int64_t value = node.Get<int64_t>(key);
     if (value < 0) node.Fail(key, "a non-negative integer");
     *field = static_cast<uint64_t>(value);
+  } else if constexpr (std::is_same_v<T, std::vector<int>>) {
+    const YamlNode list = node.Child(key);
+    if (!list.IsSequence()) node.Fail(key, "a list of integers ([] for none)");
+    field->clear();
+    for (const YamlNode& element : list.Elements()) {
+      try {
+        field->push_back(element.raw().as<int>());
+      } catch (const std::exception&) {
+        node.Fail(key, "a list of integers");
+      }
+    }
   } else {
     *field = node.Get<T>(key);
   }
@@ -75,6 +87,12 @@ std::string FormatField(const T& field) {
     return field ? "true" : "false";
   } else if constexpr (std::is_same_v<T, std::string>) {
     return QuoteYamlString(field);
+  } else if constexpr (std::is_same_v<T, std::vector<int>>) {
+    std::string text = "[";
+    for (std::size_t i = 0; i < field.size(); ++i) {
+      text += (i ? ", " : "") + std::to_string(field[i]);
+    }
+    return text + "]";
   } else if constexpr (std::is_same_v<T, double>) {
     // The shortest text that reads back to the same double (std::to_chars' guarantee).
     char buffer[64];
