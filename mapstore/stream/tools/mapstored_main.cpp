@@ -121,6 +121,13 @@ int main(int argc, char** argv) {
   const vilma::mapstore::MapStoreServerOptions server_options = config.ServerOptions(root);
   const vilma::mapstore::PostProcessOptions post_options =
       config.PostProcess(DefaultVilmaProgram());
+  // Checked here, before the server recovers journals: a configuration error exits 2 naming
+  // the file, as every other config error does (the program is only known at this point).
+  if (const std::string error = post_options.Validate(); !error.empty()) {
+    std::cerr << "vilma-mapstored: " << (config_path.empty() ? "" : config_path + ": ")
+              << "post-processing: " << error << "\n";
+    return 2;
+  }
   const std::string chunk_channel = vilma::ChannelName("VILMA_MISSION", suffix);
   const std::string ack_channel = vilma::ChannelName("VILMA_MISSION_ACK", suffix);
   const std::string status_channel = vilma::ChannelName("VILMA_STATUS", suffix);
