@@ -1,6 +1,7 @@
 // vilma-mapstored: receives mission streams on VILMA_MISSION, journals them (fsync before ack),
 // acknowledges on VILMA_MISSION_ACK and finalizes map folders under --root (docs/mapstore.md).
 #include <lcm/lcm-cpp.hpp>
+#include <malloc.h>
 #include <signal.h>
 
 #include <atomic>
@@ -248,6 +249,7 @@ int main(int argc, char** argv) {
   };
 
   auto next_status = std::chrono::steady_clock::now();
+  uint64_t status_ticks = 0;
   uint64_t missions_finished = 0;
   while (!g_stop) {
     // Handle what is waiting (up to a batch), then one fsync per journal and one ack each.
@@ -281,6 +283,14 @@ int main(int argc, char** argv) {
       sd_notify(0, "WATCHDOG=1");
 #endif
       next_status = now + std::chrono::seconds(1);
+      // Every 10 s, give freed heap pages back to the kernel. liblcm's UDP receive thread
+      // (started by liblcm, not by us) allocates and frees each packet's buffer in its own
+      // malloc arena; glibc returns an arena's free pages only from its top, so that arena's
+      // RSS ratchets up with fragmentation although nothing is held (an hour soak: its arena
+      // 1.4 -> 2.8 MB while mapstored's own state stayed bounded, docs/reliability.md).
+      // malloc_trim(0) releases the free pages of every arena (madvise), called
+      // once per 10 s, outside the receive-and-acknowledge loop.
+      if (++status_ticks % 10 == 0) malloc_trim(0);
     }
   }
   Log("stopping");
