@@ -51,6 +51,7 @@ std::string MapBuilderStats::FullReport(const std::string& indent) const {
     << " continue a track)\n"
     << indent << "tracks           " << tracks << " with >= 2 observations, " << single_observations
     << " seen once";
+  if (track_cuts > 0) s << ", " << track_cuts << " cut at the length limit";
   if (short_tracks > 0 || keypoints_dropped > 0) {
     s << "; compact: " << short_tracks << " shorter than min_observers and " << bad_not_stored
       << " bad without a landmark, " << keypoints_dropped << " keypoints without a landmark "
@@ -427,10 +428,27 @@ const mapstore::VIMap& MapBuilder::Finish() {
         }
       }
     }
+    // Each track cut into consecutive segments at the length limit, as the incremental mode
+    // closes them while they grow (MapBuilderOptions::TrackSegmentFull).
+    std::vector<mapstore::LandmarkObservation> segment;
+    const auto finish_segment = [&] {
+      const mapstore::LandmarkId lid = FinishTrack(segment, &ids_);
+      if (lid.IsValid()) delta_landmarks_.push_back(lid);
+      segment.clear();
+    };
     for (const auto& [track_id, observations] : tracks) {
       (void)track_id;
-      const mapstore::LandmarkId lid = FinishTrack(observations, &ids_);
-      if (lid.IsValid()) delta_landmarks_.push_back(lid);
+      int64_t t_first_ns = 0;
+      for (const mapstore::LandmarkObservation& o : observations) {
+        const int64_t t_ns = map_.vertex(o.vertex_id).t_ns;
+        if (segment.empty()) t_first_ns = t_ns;
+        segment.push_back(o);
+        if (options_.TrackSegmentFull(segment.size(), t_first_ns, t_ns)) {
+          ++stats_.track_cuts;
+          finish_segment();
+        }
+      }
+      if (!segment.empty()) finish_segment();
     }
     if (options_.compact != "none") {
       const mapstore::KeypointCompactionStats compaction =
@@ -458,7 +476,10 @@ void MapBuilder::UpdateTracks(bool all) {
       for (std::size_t k = 0; k < f.track_ids.size(); ++k) {
         if (f.track_ids[k] < 0) continue;
         auto [it, inserted] = open_tracks_.try_emplace(f.track_ids[k]);
-        if (inserted) it->second.first_index = hv.index;
+        if (inserted) {
+          it->second.first_index = hv.index;
+          it->second.first_t_ns = v.t_ns;
+        }
         it->second.observations.push_back(
             {hv.id, static_cast<uint32_t>(c), static_cast<uint32_t>(k)});
       }
@@ -466,11 +487,18 @@ void MapBuilder::UpdateTracks(bool all) {
   }
   // A track the newest vertex did not continue never continues (the trackers match against
   // the previous keyframe only, and ids are never reused): its landmark is made now, in
-  // track-id order as Finish() would.
+  // track-id order as Finish() would. A continued one whose segment reached the length limit
+  // is closed too: the track's next observation opens a new segment (try_emplace above), as
+  // Finish() of the whole mission cuts it.
+  const int64_t newest_t_ns = held_.empty() ? 0 : map_.vertex(newest).t_ns;
   for (auto it = open_tracks_.begin(); it != open_tracks_.end();) {
     if (!all && it->second.observations.back().vertex_id == newest) {
-      ++it;
-      continue;
+      if (!options_.TrackSegmentFull(it->second.observations.size(), it->second.first_t_ns,
+                                     newest_t_ns)) {
+        ++it;
+        continue;
+      }
+      ++stats_.track_cuts;
     }
     const mapstore::LandmarkId lid = FinishTrack(it->second.observations, &landmark_ids_);
     if (lid.IsValid()) {

@@ -21,6 +21,8 @@ void VisitMapBuilderFields(Options& o, Visitor&& v) {
   v("", "cameras", o.cameras);
   v("", "compact", o.compact);
   v("", "keep_images", o.keep_images);
+  v("", "max_track_vertices", o.max_track_vertices);
+  v("", "max_track_duration_s", o.max_track_duration_s);
   v("triangulation", "max_iterations", o.triangulation.max_iterations);
   v("triangulation", "convergence_step_m", o.triangulation.convergence_step_m);
   v("triangulation", "keypoint_sigma_px", o.triangulation.keypoint_sigma_px);
@@ -79,7 +81,24 @@ std::string MapBuilderOptions::Validate() const {
   if (compact != "none" && compact != "tracks" && compact != "good") {
     return "compact: expected \"none\", \"tracks\" or \"good\", got \"" + compact + "\"";
   }
-  return "";
+  if (!(e = Check(max_track_vertices == 0 ||
+                      max_track_vertices >= landmark_quality.min_observers,
+                  "max_track_vertices",
+                  "0 (no limit) or >= landmark_quality.min_observers (" +
+                      std::to_string(landmark_quality.min_observers) + ")"))
+           .empty())
+    return e;
+  return Check(Finite(max_track_duration_s) && max_track_duration_s >= 0, "max_track_duration_s",
+               ">= 0 [s] (0: no limit)");
+}
+
+bool MapBuilderOptions::TrackSegmentFull(std::size_t observations, int64_t t_first_ns,
+                                         int64_t t_last_ns) const {
+  if (max_track_vertices > 0 && observations >= static_cast<std::size_t>(max_track_vertices)) {
+    return true;
+  }
+  return max_track_duration_s > 0.0 &&
+         static_cast<double>(t_last_ns - t_first_ns) >= max_track_duration_s * 1e9;
 }
 
 MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {

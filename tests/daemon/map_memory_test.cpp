@@ -4,8 +4,12 @@
 // the deltas is a consistent map on the receiver's side, the last delta carries only what was
 // not final, and the receiver's mission equals the whole-mission build of the same input (but
 // for the landmark ids and their order).
+#include <algorithm>
 #include <catch2/catch.hpp>
+#include <cstdio>
 #include <map>
+#include <string>
+#include <vector>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
@@ -31,26 +35,44 @@ constexpr double kF = 300.0, kDepthM = 3.0;
 struct SlidingStream {
   SensorRig rig;
   cv::Mat texture;
-  explicit SlidingStream(int vertices) {
+  std::vector<int> offset_px;  // per vertex: the texture column at the image's left edge
+  explicit SlidingStream(int vertices) : SlidingStream(Offsets(vertices, 0, 0)) {}
+  // Vertex i at offset_px[i] / kShiftPx steps of the slide (equal offsets: standing still).
+  explicit SlidingStream(std::vector<int> offsets) : offset_px(std::move(offsets)) {
     CameraConfig camera;
     camera.camera = Camera(kWidth, kHeight, Eigen::Vector4d(kF, kF, kWidth / 2.0, kHeight / 2.0),
                            DistortionModel::kNone, Eigen::VectorXd());
     rig.cameras.push_back(camera);
-    cv::Mat noise(kHeight, kWidth + kShiftPx * vertices, CV_8UC1);
+    const int max_offset = *std::max_element(offset_px.begin(), offset_px.end());
+    cv::Mat noise(kHeight, kWidth + max_offset, CV_8UC1);
     cv::RNG rng(11);
     rng.fill(noise, cv::RNG::UNIFORM, 0, 255);
     cv::GaussianBlur(noise, texture, cv::Size(0, 0), 1.5);
     cv::normalize(texture, texture, 0, 255, cv::NORM_MINMAX);
   }
+  // `moving` vertices sliding, then `still` standing at the last position, then `moving_after`
+  // sliding on.
+  static std::vector<int> Offsets(int moving, int still, int moving_after) {
+    std::vector<int> o;
+    for (int i = 0; i < moving; ++i) o.push_back(i * kShiftPx);
+    const int stop = o.empty() ? 0 : o.back();
+    for (int i = 0; i < still; ++i) o.push_back(stop);
+    for (int i = 1; i <= moving_after; ++i) o.push_back(stop + i * kShiftPx);
+    return o;
+  }
+  int size() const { return static_cast<int>(offset_px.size()); }
   static int64_t Time(int i) { return int64_t{1'000'000'000} + int64_t{100'000'000} * i; }
   FrameState State(int i) const {
     FrameState s;
     s.t_ns = Time(i);
     s.T_M_I = Transformation(Eigen::Quaterniond::Identity(),
-                             Eigen::Vector3d(i * kShiftPx * kDepthM / kF, 0.0, 0.0));
+                             Eigen::Vector3d(offset_px[static_cast<std::size_t>(i)] * kDepthM / kF,
+                                             0.0, 0.0));
     return s;
   }
-  cv::Mat Image(int i) const { return texture(cv::Rect(i * kShiftPx, 0, kWidth, kHeight)).clone(); }
+  cv::Mat Image(int i) const {
+    return texture(cv::Rect(offset_px[static_cast<std::size_t>(i)], 0, kWidth, kHeight)).clone();
+  }
   // IMU at 200 Hz over (Time(i - 1), Time(i)]: at rest (the builder checks no physics).
   static void AddImu(MapBuilder* b, int i) {
     for (int64_t t = i == 0 ? Time(0) - 50'000'000 : Time(i - 1) + 5'000'000; t <= Time(i);
@@ -196,6 +218,151 @@ TEST_CASE("map memory: a streamed mission releases acknowledged data and stays t
   CHECK(streamed.stats().landmarks_good == whole.stats().landmarks_good);
   CHECK(streamed.stats().tracks == whole.stats().tracks);
   CHECK(streamed.stats().keypoints_dropped == whole.stats().keypoints_dropped);
+}
+
+// A streamed build as the daemon runs it: a delta every 10 vertices, acknowledged 2 deltas
+// later (the receiver's journal lags), applied to the receiver's map in order; every 50
+// vertices the receiver's map must be consistent (what mapstored would finalize after a
+// crash). Held vertices and bytes are sampled after each acknowledgement from vertex
+// `held_from` on.
+struct StreamedRun {
+  mapstore::VIMap receiver;
+  mapping::MapBuilderStats stats;
+  int64_t held_max = 0, bytes_max = 0;
+  int64_t held_at_end = 0;  // before Finish()
+  std::vector<std::pair<int, int64_t>> held_samples;  // (vertex index, held vertices)
+  int consistency_checks = 0;
+};
+StreamedRun Stream(const SlidingStream& stream, const mapping::MapBuilderOptions& options,
+                   int held_from) {
+  StreamedRun run;
+  MapBuilder builder(stream.rig, options, 7, "stand", MapBuilderMemory::kReleaseAcknowledged);
+  for (int i = 0; i < stream.size(); ++i) {
+    SlidingStream::AddImu(&builder, i);
+    REQUIRE(builder.AddFrame(stream.State(i), {stream.Image(i)}));
+    if (i % 10 != 9) continue;
+    mapstore::ApplyMissionDelta(builder.TakeDelta(), &run.receiver);
+    if (i % 50 == 49) {
+      const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(run.receiver);
+      INFO("after vertex " << i << ": " << report.FullReport());
+      CHECK(report.ok());
+      ++run.consistency_checks;
+    }
+    builder.ReleaseAcknowledged(builder.delta_count() - 3);
+    if (i >= held_from) {
+      const mapping::MapBuilderHeld held = builder.Held();
+      run.held_max = std::max(run.held_max, held.vertices);
+      run.bytes_max = std::max(run.bytes_max, held.bytes);
+      run.held_samples.emplace_back(i, held.vertices);
+    }
+  }
+  run.held_at_end = builder.Held().vertices;
+  builder.Finish();
+  mapstore::ApplyMissionDelta(builder.TakeDelta(), &run.receiver);
+  builder.ReleaseAcknowledged(builder.delta_count() - 1);
+  CHECK(builder.Held().vertices <= 1);
+  CHECK(builder.Held().landmarks == 0);
+  run.stats = builder.stats();
+  return run;
+}
+
+TEST_CASE("map memory: a robot standing still holds a bounded mission (tracks cut at a length)",
+          "[daemon][mapping][memory]") {
+  // 20 vertices sliding, 200 standing still (20 s at 10 Hz: every track continues), 20 sliding.
+  const SlidingStream stream(SlidingStream::Offsets(20, 200, 20));
+  mapping::MapBuilderOptions options;
+  options.compact = "tracks";  // keeps the standing segments' (bad: no parallax) landmarks too
+  options.max_track_vertices = 20;
+  const int kStandingFrom = 20 + 50;  // sampled from 50 vertices into the standing stretch
+
+  // Before: no limit. The standing robot's tracks never close, so nothing becomes final and
+  // every vertex stays (what the limit is for).
+  mapping::MapBuilderOptions unlimited = options;
+  unlimited.max_track_vertices = 0;
+  const StreamedRun before = Stream(stream, unlimited, kStandingFrom);
+  CHECK(before.held_max >= 200);
+  CHECK(before.stats.track_cuts == 0);
+
+  // After: held vertices bounded, however long the robot stands, by twice the segment length
+  // (a vertex waits for its landmarks' segments to close, <= 19 vertices later, and each of
+  // those for the segments open at its end, <= 19 more) plus the unacknowledged window (30)
+  // and one delta's vertices (10).
+  const StreamedRun after = Stream(stream, options, kStandingFrom);
+  INFO("held vertices: max " << after.held_max << " (no limit: " << before.held_max << "), bytes "
+                             << after.bytes_max << " (no limit: " << before.bytes_max << ")");
+  CHECK(after.held_max <= 2 * 20 + 30 + 10);
+  CHECK(after.bytes_max * 2 < before.bytes_max);
+  CHECK(after.stats.track_cuts > 100);  // every standing track, cut every 20 vertices
+  CHECK(after.consistency_checks == stream.size() / 50);
+  const mapstore::ConsistencyReport report = mapstore::CheckMapConsistency(after.receiver);
+  INFO(report.FullReport());
+  CHECK(report.ok());
+
+  // The whole-mission build cuts the same tracks at the same vertices: the same mission.
+  MapBuilder whole(stream.rig, options, 7, "stand");
+  for (int i = 0; i < stream.size(); ++i) {
+    SlidingStream::AddImu(&whole, i);
+    REQUIRE(whole.AddFrame(stream.State(i), {stream.Image(i)}));
+  }
+  whole.Finish();
+  CheckSameMission(whole.map(), after.receiver, whole.mission_id());
+  CHECK(after.stats.track_cuts == whole.stats().track_cuts);
+  CHECK(after.stats.landmarks == whole.stats().landmarks);
+  CHECK(after.stats.tracks == whole.stats().tracks);
+  // No landmark has more observations than the limit.
+  std::size_t longest = 0;
+  for (const mapstore::LandmarkId& id : after.receiver.landmark_ids(whole.mission_id())) {
+    longest = std::max(longest, after.receiver.landmark(id).observations.size());
+  }
+  CHECK(longest == 20);
+}
+
+TEST_CASE("map memory: the time limit cuts tracks as the vertex limit does",
+          "[daemon][mapping][memory]") {
+  const SlidingStream stream(SlidingStream::Offsets(10, 120, 0));
+  mapping::MapBuilderOptions options;
+  options.compact = "tracks";
+  options.max_track_vertices = 0;
+  options.max_track_duration_s = 2.95;  // vertices every 0.1 s: 30 vertices span 2.9 s, 31 3.0 s
+  const StreamedRun run = Stream(stream, options, 0);
+  CHECK(run.stats.track_cuts > 0);
+  std::size_t longest = 0;
+  for (const mapstore::LandmarkId& id : run.receiver.landmark_ids(run.receiver.mission_ids()[0])) {
+    longest = std::max(longest, run.receiver.landmark(id).observations.size());
+  }
+  CHECK(longest == 31);
+  CHECK(run.held_max <= 2 * 31 + 30 + 10);
+  CHECK(mapstore::CheckMapConsistency(run.receiver).ok());
+}
+
+// The figures of docs/daemon.md "A robot standing still" (hidden: run with
+// `vilma_daemon_tests "[standing-measure]"`): default options (compact "good"), 10 s moving, 5
+// minutes standing (3000 vertices), 10 s moving; held vertices and bytes with and without the
+// limit.
+TEST_CASE("map memory: a robot standing for 5 minutes, held memory (measurement)",
+          "[.][standing-measure]") {
+  const SlidingStream stream(SlidingStream::Offsets(100, 3000, 100));
+  std::printf("| max_track_vertices | held vertices max (after 1 / 2.5 / 5 min standing) | "
+              "held bytes max | track cuts | landmarks | receiver consistent |\n|---|---|---|---|---|---|\n");
+  for (const int limit : {0, 100}) {
+    mapping::MapBuilderOptions options;
+    options.max_track_vertices = limit;
+    const StreamedRun run = Stream(stream, options, 100);
+    std::string held_text;
+    for (const int standing_vertices : {600, 1500, 3000}) {
+      int64_t held = 0;
+      for (const auto& [i, h] : run.held_samples) {
+        if (i < 100 + standing_vertices) held = std::max(held, h);
+      }
+      held_text += (held_text.empty() ? "" : " / ") + std::to_string(held);
+    }
+    std::printf("| %d | %s | %.2f MB | %lld | %lld | %s |\n", limit, held_text.c_str(),
+                static_cast<double>(run.bytes_max) / 1e6,
+                static_cast<long long>(run.stats.track_cuts),
+                static_cast<long long>(run.stats.landmarks),
+                mapstore::CheckMapConsistency(run.receiver).ok() ? "yes" : "NO");
+    std::fflush(stdout);
+  }
 }
 
 TEST_CASE("map memory: the whole-mission mode keeps everything, images need a local copy",

@@ -36,6 +36,8 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   o.landmark_quality.min_observers = 6;
   o.landmark_quality.max_reprojection_error_px = 1.25;
   o.keep_images = true;
+  o.max_track_vertices = 40;
+  o.max_track_duration_s = 2.5;
   const MapBuilderOptions back = ParseMapBuilderOptions(MapBuilderOptionsToYaml(o), "t.yaml");
   CHECK(back.vertex_rate_hz == 7.5);
   CHECK(back.cameras == std::vector<int>{1, 0});
@@ -44,6 +46,8 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   CHECK(back.landmark_quality.min_observers == 6);
   CHECK(back.landmark_quality.max_reprojection_error_px == 1.25);
   CHECK(back.keep_images);
+  CHECK(back.max_track_vertices == 40);
+  CHECK(back.max_track_duration_s == 2.5);
   CHECK(MapBuilderOptionsToYaml(back) == MapBuilderOptionsToYaml(o));
 }
 
@@ -66,6 +70,21 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
   CHECK_THROWS_WITH(ParseMapBuilderOptions(
                         Replace(good, "  max_distance_m: 40", "  max_distance_m: 0.01"), "m.yaml"),
                     Catch::Contains("landmark_quality.max_distance_m"));
+  // Track length limits: 0 or at least min_observers; a duration >= 0.
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100",
+                                                   "max_track_vertices: 3"),
+                                           "m.yaml"),
+                    Catch::Contains("m.yaml") && Catch::Contains("max_track_vertices") &&
+                        Catch::Contains("min_observers (4)"));
+  CHECK(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100", "max_track_vertices: 0"),
+                               "m.yaml")
+            .max_track_vertices == 0);
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "max_track_duration_s: 0",
+                                                   "max_track_duration_s: -1"),
+                                           "m.yaml"),
+                    Catch::Contains("max_track_duration_s"));
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100\n", ""), "m.yaml"),
+                    Catch::Contains("max_track_vertices"));
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: [0, 0]"), "m"),
                   InputError);
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: 3"), "m"),

@@ -11,12 +11,16 @@
 //   TakeDelta()          what changed since the last call (the live mission stream).
 //   Finish()             triangulates a landmark per track with >= 2 observations, stores it
 //                        in its first observing vertex, adds the observations, evaluates the
-//                        landmark quality and marks the mission complete.
+//                        landmark quality and marks the mission complete. A track longer than
+//                        options.max_track_vertices (or max_track_duration_s) is cut into
+//                        consecutive segments of that length, a landmark each.
 //
 // Streaming with bounded memory (MapBuilderMemory::kReleaseAcknowledged, the daemon streaming
 // to vilma-mapstored without --save-map; docs/daemon.md "Memory in long missions"): a track
 // can only continue from the previous keyframe of its camera, so a track that the newest
-// vertex does not continue is closed for good. Its landmark is triangulated right away, with
+// vertex does not continue is closed for good, and a track segment that reaches the length
+// limit is closed as well (so that a robot standing still, whose tracks never end, still
+// releases its vertices; the track's next observation opens a new segment). Its landmark is triangulated right away, with
 // exactly the inputs Finish() would use (its observers' T_M_I and keypoints). A vertex whose
 // tracks are all closed is final: compacted as Finish() would, and sent once more in a delta
 // with its landmark ids. A landmark goes out with every delta that makes one of its observers
@@ -83,6 +87,9 @@ struct MapBuilderStats {
   int64_t tracked_keypoints = 0;    // keypoints that continue a track
   int64_t tracks = 0;               // tracks with >= 2 observations
   int64_t single_observations = 0;  // tracks seen once (no landmark)
+  // Track segments closed at options.max_track_vertices / max_track_duration_s (the track's
+  // next observation starts a new landmark).
+  int64_t track_cuts = 0;
   int64_t short_tracks = 0;         // compact: tracks below min_observers (no landmark)
   int64_t bad_not_stored = 0;       // compact: bad landmarks not stored (in landmarks_bad)
   int64_t keypoints_dropped = 0;    // compact: keypoints without a landmark removed
@@ -197,6 +204,7 @@ class MapBuilder {
 
   struct OpenTrack {
     int64_t first_index = 0;  // vertex index of the first observation
+    int64_t first_t_ns = 0;   // its vertex's time [ns]
     std::vector<mapstore::LandmarkObservation> observations;
   };
   struct HeldVertex {

@@ -4,6 +4,8 @@
 // and missing keys are errors.
 #pragma once
 
+#include <cstddef>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -63,6 +65,21 @@ struct MapBuilderOptions {
   // map is saved (~0.2-0.3 MB per 752x480 grey image); not sent in mission deltas (TakeDelta
   // clears the image ids), so missions streamed to vilma-mapstored have none.
   bool keep_images = false;
+  // Long tracks are cut into landmarks of at most this many vertices (0: no limit). A track
+  // that a robot standing still keeps seeing would otherwise never close, and with it neither
+  // its vertices nor its observations could be released while streaming (docs/daemon.md "A
+  // robot standing still"): a track segment that reaches the limit is closed as if the track
+  // had ended (its landmark triangulated, evaluated and sent), and the track's next
+  // observation starts a new landmark (landmark merging, `lc`/`mlm`, can join them later).
+  // The same cut in both memory modes, so the streamed mission equals the whole one.
+  // Nonzero: at least landmark_quality.min_observers (shorter segments make no landmark).
+  int max_track_vertices = 100;
+  // The same by time: a segment is closed when its last observation is at least this much
+  // after its first [s] (0: no limit).
+  double max_track_duration_s = 0.0;
+  // True when a track segment of `observations` observations (one per vertex) from t_first_ns
+  // to t_last_ns [ns] has reached a limit above.
+  bool TrackSegmentFull(std::size_t observations, int64_t t_first_ns, int64_t t_last_ns) const;
   bool StoresShortTracks() const { return compact == "none"; }
   bool StoresBadLandmarks() const { return compact != "good"; }
   // Empty when valid, else "field: expectation" (field path with sections).
