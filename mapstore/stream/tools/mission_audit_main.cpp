@@ -24,7 +24,8 @@ const char kUsage[] = R"(Usage: vilma-mission-audit LOG ROOT [--channel-suffix S
 LOG is an lcm-logger file of the mission stream (VILMA_MISSION and VILMA_MISSION_ACK, with
 the suffix); ROOT is vilma-mapstored's --root. For every mission in LOG: the highest ack_seq
 acknowledged with status OK or COMPLETE, the vertices of the chunks 0..ack_seq (their payloads
-parsed as mission deltas), and whether each of them is in a map folder under ROOT that loads.
+parsed as mission deltas; each vertex counted once, also when a later chunk re-sends it), and
+whether each of them is in a map folder under ROOT that loads.
 Prints one line per mission and a summary:
   mission <id> "<name>": acked seq 12, acknowledged vertices 118, stored 118, lost 0
   audit: missions 2, acknowledged vertices 230, lost 0, unloadable maps 0, unseen chunks 0
@@ -132,18 +133,20 @@ int main(int argc, char** argv) {
   }
   int64_t total_acked = 0, total_lost = 0, unseen = 0;
   for (const auto& [id, m] : missions) {
-    int64_t acked = 0, lost = 0;
+    // Distinct vertices: the incremental stream sends a vertex twice (first without landmark
+    // ids, then in its final form), which must count once.
+    std::set<std::string> acked_ids;
     for (int64_t seq = 0; seq <= m.acked_seq; ++seq) {
       const auto it = m.vertices_by_seq.find(seq);
       if (it == m.vertices_by_seq.end()) {
         ++unseen;
         continue;
       }
-      for (const std::string& v : it->second) {
-        ++acked;
-        if (stored[id].count(v) == 0) ++lost;
-      }
+      acked_ids.insert(it->second.begin(), it->second.end());
     }
+    const int64_t acked = static_cast<int64_t>(acked_ids.size());
+    int64_t lost = 0;
+    for (const std::string& v : acked_ids) lost += stored[id].count(v) == 0;
     std::cout << "mission " << id << " \"" << m.name << "\": acked seq " << m.acked_seq
               << ", acknowledged vertices " << acked << ", stored " << stored[id].size()
               << ", lost " << lost << "\n";
