@@ -2,9 +2,9 @@
 
 #include <cmath>
 #include <filesystem>
-#include <sstream>
 
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 #include "vilma/estimator/vio_pipeline.h"
 
@@ -143,119 +143,149 @@ std::string DaemonOptions::Validate() const {
   return "";
 }
 
+namespace {
+
+// A path in the file: relative to the file's folder when read, as given when written.
+// (Path = std::string or const std::string: the reader is only called on the first.)
+template <typename Path>
+auto ResolvedPath(Path& path) {
+  return WithCodec(
+      path,
+      [](const YamlNode& node, const char* key, std::string* value) {
+        *value = Resolve(node.file(), node.Get<std::string>(key));
+      },
+      [](const std::string& value) { return FormatYamlScalar(value); });
+}
+
+// A section that is either the name of an options file ("" = built-in defaults) or the options
+// inline (a map): *file gets the resolved name ("" when inline), *options what the file or the
+// map holds.
+template <typename Options, typename Read, typename Load>
+void ReadFileOrInline(const YamlNode& node, const char* key, std::string* file, Options* options,
+                      Read read, Load load) {
+  if (node.Has(key) && node.raw()[key].IsMap()) {
+    *options = read(node.Child(key));
+    file->clear();
+    return;
+  }
+  *file = Resolve(node.file(), node.Get<std::string>(key));
+  if (!file->empty()) *options = load(*file);
+}
+
+// Such a section is written inline (a block), after a comment saying where the options came
+// from: the effective config then reads back to the same options without the file.
+std::string WriteFileOrInline(const char* what, const std::string& file, const std::string& yaml) {
+  return "\n# " + std::string(what) + (file.empty() ? " (built-in defaults)" : " from " + file) +
+         "\n" + yaml;
+}
+
+// The field list (core/options_fields.h): reader, --print-config's writer, every key required
+// (config/daemon.yaml lists them all). Options = DaemonOptions or const DaemonOptions; the
+// codecs' readers take the struct that holds the members one key sets.
+template <typename Options, typename Visitor>
+void VisitDaemonFields(Options& o, Visitor&& v) {
+  v("", "rig", ResolvedPath(o.rig));
+  v("", "lcm_url", o.lcm_url);
+  v("", "channel_suffix", o.channel_suffix);
+  v("", "vio_camera", o.vio_camera);
+  // Written as the effective value: the estimator options' own stereo.enabled turns it on too.
+  v("", "stereo", WithCodec(o, [](const YamlNode& node, const char* key, DaemonOptions* d) {
+                              d->stereo = node.Get<bool>(key);
+                            },
+                            [](const DaemonOptions& d) {
+                              return FormatYamlScalar(d.StereoEnabled());
+                            }));
+  v("", "status_period_s", o.status_period_s);
+  v("", "camera_silence_s", o.camera_silence_s);
+  v("", "time_jump_resume_max_gap_s", o.time_jump_resume_max_gap_s);
+  v("channels", "cameras", o.channels.cameras);
+  v("channels", "imu", o.channels.imu);
+  v("channels", "odometry", o.channels.odometry);
+  v("channels", "pose", o.channels.pose);
+  v("channels", "status", o.channels.status);
+  v("channels", "localization", o.channels.localization);
+  v("queues", "input_capacity", o.queues.input_capacity);
+  v("queues", "filter_capacity", o.queues.filter_capacity);
+  v("queues", "output_capacity", o.queues.output_capacity);
+  v("queues", "image_pool_slots", o.queues.image_pool_slots);
+  v("queues", "max_frames_in_flight", o.queues.max_frames_in_flight);
+  v("sync", "frame_grouping_tolerance_ns", o.sync.frame_grouping_tolerance_ns);
+  v("sync", "incomplete_frame_timeout_ns", o.sync.incomplete_frame_timeout_ns);
+  v("sync", "max_imu_wait_ns", o.sync.max_imu_wait_ns);
+  v("sync", "imu_gap_threshold_ns", o.sync.imu_gap_threshold_ns);
+  v("sync", "time_jump_threshold_ns", o.sync.time_jump_threshold_ns);
+  v("sync", "max_pending_frames", o.sync.max_pending_frames);
+  v("mapping", "enabled", o.mapping.enabled);
+  v("mapping", "mission_name", o.mapping.mission_name);
+  v("mapping", "mission_seed", o.mapping.mission_seed);
+  v("mapping", "save_dir", ResolvedPath(o.mapping.save_dir));
+  v("mapping", "queue_capacity", o.mapping.queue_capacity);
+  v("mapping", "max_frames_in_flight", o.mapping.max_frames_in_flight);
+  v("mapping.stream", "enabled", o.mapping.stream.enabled);
+  v("mapping.stream", "lcm_url", o.mapping.stream.lcm_url);
+  v("mapping.stream", "chunk_channel", o.mapping.stream.chunk_channel);
+  v("mapping.stream", "ack_channel", o.mapping.stream.ack_channel);
+  v("mapping.stream", "delta_vertices", o.mapping.stream.delta_vertices);
+  v("mapping.stream", "delta_period_s", o.mapping.stream.delta_period_s);
+  v("mapping.stream", "max_delta_bytes", o.mapping.stream.max_delta_bytes);
+  v("mapping.stream", "end_timeout_s", o.mapping.stream.end_timeout_s);
+  v("mapping.stream", "retransmit_timeout_s", o.mapping.stream.retransmit_timeout_s);
+  v("mapping.stream", "max_window_chunks", o.mapping.stream.max_window_chunks);
+  v("mapping", "map_builder",
+    WithCodec(o.mapping,
+              [](const YamlNode& node, const char* key, MappingOptions* m) {
+                ReadFileOrInline(node, key, &m->map_builder_file, &m->map_builder,
+                                 mapping::ReadMapBuilderOptions, mapping::LoadMapBuilderOptions);
+              },
+              [](const MappingOptions& m) {
+                return WriteFileOrInline("map builder options", m.map_builder_file,
+                                         mapping::MapBuilderOptionsToYaml(m.map_builder));
+              }));
+  v("localization", "enabled", o.localization.enabled);
+  v("localization", "map", ResolvedPath(o.localization.map));
+  v("localization", "localizer", ResolvedPath(o.localization.localizer_file));
+  v("localization", "max_rate_hz", o.localization.max_rate_hz);
+  v("localization", "min_inliers", o.localization.min_inliers);
+  v("localization", "max_jump_m", o.localization.global_frame.max_jump_m);
+  v("localization", "max_jump_deg", o.localization.global_frame.max_jump_deg);
+  v("localization", "max_gravity_misalignment_deg",
+    o.localization.global_frame.max_gravity_misalignment_deg);
+  v("localization", "min_consistent_results", o.localization.global_frame.min_consistent_results);
+  v("localization", "forgetting_factor", o.localization.global_frame.forgetting_factor);
+  v("localization", "max_consecutive_gated", o.localization.global_frame.max_consecutive_gated);
+  v("localization", "features",
+    WithCodec(o.localization,
+              [](const YamlNode& node, const char* key, LocalizationOptions* l) {
+                ReadFileOrInline(node, key, &l->features_file, &l->features,
+                                 localizer::ReadKeyframeFeatureOptions,
+                                 localizer::LoadKeyframeFeatureOptions);
+              },
+              [](const LocalizationOptions& l) {
+                // "" is the built-in query profile, not the struct's defaults.
+                return "\n# query keyframe features" +
+                       (l.features_file.empty() ? std::string(" (built-in profile)")
+                                                : " from " + l.features_file) +
+                       "\n" + localizer::KeyframeFeatureOptionsToYaml(l.features);
+              }));
+  v("", "estimator",
+    WithCodec(o,
+              [](const YamlNode& node, const char* key, DaemonOptions* d) {
+                ReadFileOrInline(node, key, &d->estimator_file, &d->estimator,
+                                 estimator::ReadFilterOptions, estimator::LoadFilterOptions);
+              },
+              [](const DaemonOptions& d) {
+                return WriteFileOrInline("estimator options", d.estimator_file,
+                                         estimator::FilterOptionsToYaml(d.estimator));
+              }));
+}
+
+}  // namespace
+
 DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   if (!root.IsMap()) root.Fail("", "a map of daemon options");
   DaemonOptions o;
-  o.rig = Resolve(root.file(), root.Get<std::string>("rig"));
-  o.lcm_url = root.Get<std::string>("lcm_url");
-  o.channel_suffix = root.Get<std::string>("channel_suffix");
-  o.vio_camera = root.Get<int>("vio_camera");
-  o.stereo = root.Get<bool>("stereo");
-  o.status_period_s = root.Get<double>("status_period_s");
-  o.camera_silence_s = root.Get<double>("camera_silence_s");
-  o.time_jump_resume_max_gap_s = root.Get<double>("time_jump_resume_max_gap_s");
-
-  // estimator: a file name ("" = defaults) or the options inline.
-  const YAML::Node estimator = root.raw()["estimator"];
-  if (estimator.IsDefined() && estimator.IsMap()) {
-    o.estimator = estimator::ReadFilterOptions(root.Child("estimator"));
-  } else {
-    o.estimator_file = Resolve(root.file(), root.Get<std::string>("estimator"));
-    if (!o.estimator_file.empty()) o.estimator = estimator::LoadFilterOptions(o.estimator_file);
-  }
-
-  const YamlNode channels = root.MapChild("channels");
-  const YamlNode cameras = channels.Child("cameras");
-  if (!cameras.IsSequence()) channels.Fail("cameras", "a list of channel names");
-  o.channels.cameras.clear();
-  for (const YAML::Node& c : cameras.raw()) {
-    if (!c.IsScalar()) channels.Fail("cameras", "a list of channel names");
-    o.channels.cameras.push_back(c.Scalar());
-  }
-  o.channels.imu = channels.Get<std::string>("imu");
-  o.channels.odometry = channels.Get<std::string>("odometry");
-  o.channels.pose = channels.Get<std::string>("pose");
-  o.channels.status = channels.Get<std::string>("status");
-  o.channels.localization = channels.Get<std::string>("localization");
-  channels.CheckNoUnknownKeys();
-
-  const YamlNode queues = root.MapChild("queues");
-  o.queues.input_capacity = queues.Get<int>("input_capacity");
-  o.queues.filter_capacity = queues.Get<int>("filter_capacity");
-  o.queues.output_capacity = queues.Get<int>("output_capacity");
-  o.queues.image_pool_slots = queues.Get<int>("image_pool_slots");
-  o.queues.max_frames_in_flight = queues.Get<int>("max_frames_in_flight");
-  queues.CheckNoUnknownKeys();
-
-  const YamlNode sync = root.MapChild("sync");
-  o.sync.frame_grouping_tolerance_ns = sync.Get<int64_t>("frame_grouping_tolerance_ns");
-  o.sync.incomplete_frame_timeout_ns = sync.Get<int64_t>("incomplete_frame_timeout_ns");
-  o.sync.max_imu_wait_ns = sync.Get<int64_t>("max_imu_wait_ns");
-  o.sync.imu_gap_threshold_ns = sync.Get<int64_t>("imu_gap_threshold_ns");
-  o.sync.time_jump_threshold_ns = sync.Get<int64_t>("time_jump_threshold_ns");
-  o.sync.max_pending_frames = sync.Get<int>("max_pending_frames");
-  sync.CheckNoUnknownKeys();
-
-  const YamlNode map_node = root.MapChild("mapping");
-  o.mapping.enabled = map_node.Get<bool>("enabled");
-  // map_builder: a file name ("" = defaults) or the options inline.
-  const YAML::Node builder = map_node.raw()["map_builder"];
-  if (builder.IsDefined() && builder.IsMap()) {
-    o.mapping.map_builder = mapping::ReadMapBuilderOptions(map_node.Child("map_builder"));
-  } else {
-    o.mapping.map_builder_file = Resolve(root.file(), map_node.Get<std::string>("map_builder"));
-    if (!o.mapping.map_builder_file.empty()) {
-      o.mapping.map_builder = mapping::LoadMapBuilderOptions(o.mapping.map_builder_file);
-    }
-  }
-  o.mapping.mission_name = map_node.Get<std::string>("mission_name");
-  {
-    const int64_t seed = map_node.Get<int64_t>("mission_seed");
-    if (seed < 0) map_node.Fail("mission_seed", "an integer >= 0");
-    o.mapping.mission_seed = static_cast<uint64_t>(seed);
-  }
-  o.mapping.save_dir = Resolve(root.file(), map_node.Get<std::string>("save_dir"));
-  o.mapping.queue_capacity = map_node.Get<int>("queue_capacity");
-  o.mapping.max_frames_in_flight = map_node.Get<int>("max_frames_in_flight");
-  const YamlNode stream = map_node.MapChild("stream");
-  o.mapping.stream.enabled = stream.Get<bool>("enabled");
-  o.mapping.stream.lcm_url = stream.Get<std::string>("lcm_url");
-  o.mapping.stream.chunk_channel = stream.Get<std::string>("chunk_channel");
-  o.mapping.stream.ack_channel = stream.Get<std::string>("ack_channel");
-  o.mapping.stream.delta_vertices = stream.Get<int>("delta_vertices");
-  o.mapping.stream.delta_period_s = stream.Get<double>("delta_period_s");
-  o.mapping.stream.max_delta_bytes = stream.Get<int>("max_delta_bytes");
-  o.mapping.stream.end_timeout_s = stream.Get<double>("end_timeout_s");
-  o.mapping.stream.retransmit_timeout_s = stream.Get<double>("retransmit_timeout_s");
-  o.mapping.stream.max_window_chunks = stream.Get<int>("max_window_chunks");
-  stream.CheckNoUnknownKeys();
-  map_node.CheckNoUnknownKeys();
-
-  const YamlNode loc = root.MapChild("localization");
-  o.localization.enabled = loc.Get<bool>("enabled");
-  o.localization.map = Resolve(root.file(), loc.Get<std::string>("map"));
-  o.localization.localizer_file = Resolve(root.file(), loc.Get<std::string>("localizer"));
-  // features: a file name ("" = the built-in query profile) or the options inline.
-  const YAML::Node features = loc.raw()["features"];
-  if (features.IsDefined() && features.IsMap()) {
-    o.localization.features = localizer::ReadKeyframeFeatureOptions(loc.Child("features"));
-  } else {
-    o.localization.features_file = Resolve(root.file(), loc.Get<std::string>("features"));
-    if (!o.localization.features_file.empty()) {
-      o.localization.features = localizer::LoadKeyframeFeatureOptions(o.localization.features_file);
-    }
-  }
-  o.localization.max_rate_hz = loc.Get<double>("max_rate_hz");
-  o.localization.min_inliers = loc.Get<int>("min_inliers");
-  o.localization.global_frame.max_jump_m = loc.Get<double>("max_jump_m");
-  o.localization.global_frame.max_jump_deg = loc.Get<double>("max_jump_deg");
-  o.localization.global_frame.max_gravity_misalignment_deg = loc.Get<double>("max_gravity_misalignment_deg");
-  o.localization.global_frame.min_consistent_results = loc.Get<int>("min_consistent_results");
-  o.localization.global_frame.forgetting_factor = loc.Get<double>("forgetting_factor");
-  o.localization.global_frame.max_consecutive_gated = loc.Get<int>("max_consecutive_gated");
-  loc.CheckNoUnknownKeys();
-
-  root.CheckNoUnknownKeys();
+  ReadOptionFields(root, MissingKey::kRequired, &o,
+                   [](auto& options, auto&& v) { VisitDaemonFields(options, v); });
   ThrowIfInvalid(o.Validate(), root.file());
   return o;
 }
@@ -268,93 +298,8 @@ DaemonOptions LoadDaemonOptions(const std::string& path) {
   return ReadDaemonOptions(YamlNode::LoadFile(path));
 }
 
-namespace {
-std::string Quote(const std::string& s) { return "\"" + s + "\""; }
-std::string Indent(const std::string& text, const std::string& prefix) {
-  std::istringstream in(text);
-  std::ostringstream out;
-  std::string line;
-  while (std::getline(in, line)) out << prefix << line << "\n";
-  return out.str();
-}
-}  // namespace
-
 std::string DaemonOptionsToYaml(const DaemonOptions& o) {
-  std::ostringstream out;
-  out.precision(17);
-  out << "rig: " << Quote(o.rig) << "\n"
-      << "lcm_url: " << Quote(o.lcm_url) << "\n"
-      << "channel_suffix: " << Quote(o.channel_suffix) << "\n"
-      << "vio_camera: " << o.vio_camera << "\n"
-      << "stereo: " << (o.StereoEnabled() ? "true" : "false") << "\n"
-      << "status_period_s: " << o.status_period_s << "\n"
-      << "camera_silence_s: " << o.camera_silence_s << "\n"
-      << "time_jump_resume_max_gap_s: " << o.time_jump_resume_max_gap_s << "\n"
-      << "channels:\n  cameras: [";
-  for (std::size_t i = 0; i < o.channels.cameras.size(); ++i) {
-    out << (i ? ", " : "") << o.channels.cameras[i];
-  }
-  out << "]\n"
-      << "  imu: " << o.channels.imu << "\n"
-      << "  odometry: " << o.channels.odometry << "\n"
-      << "  pose: " << o.channels.pose << "\n"
-      << "  status: " << o.channels.status << "\n"
-      << "  localization: " << o.channels.localization << "\n"
-      << "queues:\n"
-      << "  input_capacity: " << o.queues.input_capacity << "\n"
-      << "  filter_capacity: " << o.queues.filter_capacity << "\n"
-      << "  output_capacity: " << o.queues.output_capacity << "\n"
-      << "  image_pool_slots: " << o.queues.image_pool_slots << "\n"
-      << "  max_frames_in_flight: " << o.queues.max_frames_in_flight << "\n"
-      << "sync:\n"
-      << "  frame_grouping_tolerance_ns: " << o.sync.frame_grouping_tolerance_ns << "\n"
-      << "  incomplete_frame_timeout_ns: " << o.sync.incomplete_frame_timeout_ns << "\n"
-      << "  max_imu_wait_ns: " << o.sync.max_imu_wait_ns << "\n"
-      << "  imu_gap_threshold_ns: " << o.sync.imu_gap_threshold_ns << "\n"
-      << "  time_jump_threshold_ns: " << o.sync.time_jump_threshold_ns << "\n"
-      << "  max_pending_frames: " << o.sync.max_pending_frames << "\n"
-      << "mapping:\n"
-      << "  enabled: " << (o.mapping.enabled ? "true" : "false") << "\n"
-      << "  mission_name: " << Quote(o.mapping.mission_name) << "\n"
-      << "  mission_seed: " << o.mapping.mission_seed << "\n"
-      << "  save_dir: " << Quote(o.mapping.save_dir) << "\n"
-      << "  queue_capacity: " << o.mapping.queue_capacity << "\n"
-      << "  max_frames_in_flight: " << o.mapping.max_frames_in_flight << "\n"
-      << "  stream:\n"
-      << "    enabled: " << (o.mapping.stream.enabled ? "true" : "false") << "\n"
-      << "    lcm_url: " << Quote(o.mapping.stream.lcm_url) << "\n"
-      << "    chunk_channel: " << o.mapping.stream.chunk_channel << "\n"
-      << "    ack_channel: " << o.mapping.stream.ack_channel << "\n"
-      << "    delta_vertices: " << o.mapping.stream.delta_vertices << "\n"
-      << "    delta_period_s: " << o.mapping.stream.delta_period_s << "\n"
-      << "    max_delta_bytes: " << o.mapping.stream.max_delta_bytes << "\n"
-      << "    end_timeout_s: " << o.mapping.stream.end_timeout_s << "\n"
-      << "    retransmit_timeout_s: " << o.mapping.stream.retransmit_timeout_s << "\n"
-      << "    max_window_chunks: " << o.mapping.stream.max_window_chunks << "\n"
-      << "  # map builder options"
-      << (o.mapping.map_builder_file.empty() ? " (built-in defaults)" : " from " + o.mapping.map_builder_file) << "\n"
-      << "  map_builder:\n"
-      << Indent(mapping::MapBuilderOptionsToYaml(o.mapping.map_builder), "    ")
-      << "localization:\n"
-      << "  enabled: " << (o.localization.enabled ? "true" : "false") << "\n"
-      << "  map: " << Quote(o.localization.map) << "\n"
-      << "  localizer: " << Quote(o.localization.localizer_file) << "\n"
-      << "  max_rate_hz: " << o.localization.max_rate_hz << "\n"
-      << "  min_inliers: " << o.localization.min_inliers << "\n"
-      << "  max_jump_m: " << o.localization.global_frame.max_jump_m << "\n"
-      << "  max_jump_deg: " << o.localization.global_frame.max_jump_deg << "\n"
-      << "  max_gravity_misalignment_deg: " << o.localization.global_frame.max_gravity_misalignment_deg << "\n"
-      << "  min_consistent_results: " << o.localization.global_frame.min_consistent_results << "\n"
-      << "  forgetting_factor: " << o.localization.global_frame.forgetting_factor << "\n"
-      << "  max_consecutive_gated: " << o.localization.global_frame.max_consecutive_gated << "\n"
-      << "  # query keyframe features"
-      << (o.localization.features_file.empty() ? " (built-in profile)" : " from " + o.localization.features_file) << "\n"
-      << "  features:\n"
-      << Indent(localizer::KeyframeFeatureOptionsToYaml(o.localization.features), "    ")
-      << "# estimator options" << (o.estimator_file.empty() ? " (built-in defaults)" : " from " + o.estimator_file) << "\n"
-      << "estimator:\n"
-      << Indent(estimator::FilterOptionsToYaml(o.estimator), "  ");
-  return out.str();
+  return OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitDaemonFields(options, v); });
 }
 
 estimator::FilterOptions DaemonOptions::EffectiveEstimatorOptions() const {

@@ -3,10 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <type_traits>
+#include <vector>
 
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/clock_sync_yaml.h"
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/drivers/driver_status.h"
@@ -22,32 +25,59 @@ bool OneOf(const std::string& value, std::initializer_list<const char*> choices)
 
 bool Finite(double v) { return std::isfinite(v); }
 
-// The top-level scalar keys; each is also a flag --key-with-dashes. Booleans are flags without
-// a value (--fake) and have a --no-... form.
+// The field list (core/options_fields.h): the file's keys, the reader, --print-config's
+// writer, and the flags (every top-level key is also a flag --key-with-dashes; a bool is a
+// flag without a value with a --no-... form).
+template <typename Options, typename Visitor>
+void VisitAravisFields(Options& o, Visitor&& v) {
+  v("", "device", o.device);
+  v("", "fake", o.fake);
+  v("", "pixel_format", o.pixel_format);
+  v("", "width", o.width);
+  v("", "height", o.height);
+  v("", "offset_x", o.offset_x);
+  v("", "offset_y", o.offset_y);
+  v("", "keep_16bit", o.keep_16bit);
+  v("", "keep_bayer", o.keep_bayer);
+  v("", "frame_rate_hz", o.frame_rate_hz);
+  v("", "exposure_auto", o.exposure_auto);
+  v("", "exposure_us", o.exposure_us);
+  v("", "gain_auto", o.gain_auto);
+  v("", "gain", o.gain);
+  v("", "trigger", o.trigger);
+  v("", "trigger_source", o.trigger_source);
+  v("", "trigger_activation", o.trigger_activation);
+  v("", "buffers", o.buffers);
+  v("", "packet_resend", o.packet_resend);
+  v("", "packet_size", o.packet_size);
+  v("", "frame_timeout_s", o.frame_timeout_s);
+  v("", "reconnect_interval_s", o.reconnect_interval_s);
+  v("", "timestamp_source", o.timestamp_source);
+  v("", "timestamp_event", o.timestamp_event);
+  v("", "time_offset_us", o.time_offset_us);
+  v("", "transport_latency_us", o.transport_latency_us);
+  VisitClockSyncFields(o.clock_sync, InSection("clock_sync", v));
+  v("", "camera_id", o.camera_id);
+  v("", "frames", o.frames);
+  v("", "fault_lose_camera_after", o.fault_lose_camera_after);
+  VisitDriverLcmFields(o, v);
+}
+
 struct KeyInfo {
-  const char* key;
+  std::string key;
   bool is_bool;
 };
-constexpr KeyInfo kKeys[] = {
-    {"device", false},          {"fake", true},
-    {"pixel_format", false},    {"width", false},
-    {"height", false},          {"offset_x", false},
-    {"offset_y", false},        {"keep_16bit", true},
-    {"keep_bayer", true},       {"frame_rate_hz", false},
-    {"exposure_auto", false},   {"exposure_us", false},
-    {"gain_auto", false},       {"gain", false},
-    {"trigger", true},          {"trigger_source", false},
-    {"trigger_activation", false}, {"buffers", false},
-    {"packet_resend", true},    {"packet_size", false},
-    {"frame_timeout_s", false}, {"reconnect_interval_s", false},
-    {"timestamp_source", false}, {"timestamp_event", false},
-    {"time_offset_us", false},  {"transport_latency_us", false},
-    {"lcm_url", false},         {"channel", false},
-    {"channel_suffix", false},  {"status_channel", false},
-    {"camera_id", false},       {"status_period_s", false},
-    {"seconds", false},         {"frames", false},
-    {"fault_lose_camera_after", false},
-};
+
+// The top-level keys of the field list (the ones that are flags).
+std::vector<KeyInfo> TopLevelKeys() {
+  std::vector<KeyInfo> keys;
+  const AravisOptions defaults;
+  VisitAravisFields(defaults, [&keys](const char* section, const char* key, const auto& field) {
+    if (*section != '\0') return;
+    keys.push_back({key, std::is_same_v<std::decay_t<decltype(field)>, bool>});
+  });
+  return keys;
+}
 
 std::string FlagOf(const std::string& key) {
   std::string flag = "--" + key;
@@ -56,41 +86,9 @@ std::string FlagOf(const std::string& key) {
 }
 
 AravisOptions ReadNode(const YamlNode& root, const AravisOptions& base) {
-  if (!root.IsMap() && !root.raw().IsNull()) root.Fail("", "a map of options");
   AravisOptions o = base;
-  if (root.raw().IsNull()) return o;  // an empty file: all defaults
-  o.device = root.GetOr("device", o.device);
-  o.fake = root.GetOr("fake", o.fake);
-  o.pixel_format = root.GetOr("pixel_format", o.pixel_format);
-  o.width = root.GetOr("width", o.width);
-  o.height = root.GetOr("height", o.height);
-  o.offset_x = root.GetOr("offset_x", o.offset_x);
-  o.offset_y = root.GetOr("offset_y", o.offset_y);
-  o.keep_16bit = root.GetOr("keep_16bit", o.keep_16bit);
-  o.keep_bayer = root.GetOr("keep_bayer", o.keep_bayer);
-  o.frame_rate_hz = root.GetOr("frame_rate_hz", o.frame_rate_hz);
-  o.exposure_auto = root.GetOr("exposure_auto", o.exposure_auto);
-  o.exposure_us = root.GetOr("exposure_us", o.exposure_us);
-  o.gain_auto = root.GetOr("gain_auto", o.gain_auto);
-  o.gain = root.GetOr("gain", o.gain);
-  o.trigger = root.GetOr("trigger", o.trigger);
-  o.trigger_source = root.GetOr("trigger_source", o.trigger_source);
-  o.trigger_activation = root.GetOr("trigger_activation", o.trigger_activation);
-  o.buffers = root.GetOr("buffers", o.buffers);
-  o.packet_resend = root.GetOr("packet_resend", o.packet_resend);
-  o.packet_size = root.GetOr("packet_size", o.packet_size);
-  o.frame_timeout_s = root.GetOr("frame_timeout_s", o.frame_timeout_s);
-  o.reconnect_interval_s = root.GetOr("reconnect_interval_s", o.reconnect_interval_s);
-  o.timestamp_source = root.GetOr("timestamp_source", o.timestamp_source);
-  o.timestamp_event = root.GetOr("timestamp_event", o.timestamp_event);
-  o.time_offset_us = root.GetOr("time_offset_us", o.time_offset_us);
-  o.transport_latency_us = root.GetOr("transport_latency_us", o.transport_latency_us);
-  if (root.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(root.MapChild("clock_sync"), o.clock_sync);
-  ReadDriverLcmOptions(root, &o);
-  o.camera_id = root.GetOr("camera_id", o.camera_id);
-  o.frames = root.GetOr("frames", o.frames);
-  o.fault_lose_camera_after = root.GetOr("fault_lose_camera_after", o.fault_lose_camera_after);
-  root.CheckNoUnknownKeys();
+  ReadOptionFields(root, MissingKey::kKeepDefault, &o,
+                   [](auto& options, auto&& v) { VisitAravisFields(options, v); });
   root.CheckValid(o.Validate());
   return o;
 }
@@ -159,41 +157,7 @@ AravisOptions LoadAravisOptionsFile(const std::string& path, const AravisOptions
 }
 
 std::string AravisOptionsToYaml(const AravisOptions& o) {
-  YAML::Emitter out;
-  out << YAML::BeginMap;
-  auto kv = [&out](const char* key, const auto& value) { out << YAML::Key << key << YAML::Value << value; };
-  kv("device", o.device);
-  kv("fake", o.fake);
-  kv("pixel_format", o.pixel_format);
-  kv("width", o.width);
-  kv("height", o.height);
-  kv("offset_x", o.offset_x);
-  kv("offset_y", o.offset_y);
-  kv("keep_16bit", o.keep_16bit);
-  kv("keep_bayer", o.keep_bayer);
-  kv("frame_rate_hz", o.frame_rate_hz);
-  kv("exposure_auto", o.exposure_auto);
-  kv("exposure_us", o.exposure_us);
-  kv("gain_auto", o.gain_auto);
-  kv("gain", o.gain);
-  kv("trigger", o.trigger);
-  kv("trigger_source", o.trigger_source);
-  kv("trigger_activation", o.trigger_activation);
-  kv("buffers", o.buffers);
-  kv("packet_resend", o.packet_resend);
-  kv("packet_size", o.packet_size);
-  kv("frame_timeout_s", o.frame_timeout_s);
-  kv("reconnect_interval_s", o.reconnect_interval_s);
-  kv("timestamp_source", o.timestamp_source);
-  kv("timestamp_event", o.timestamp_event);
-  kv("time_offset_us", o.time_offset_us);
-  kv("transport_latency_us", o.transport_latency_us);
-  EmitClockSyncOptions(out, "clock_sync", o.clock_sync);
-  kv("camera_id", o.camera_id);
-  kv("frames", o.frames);
-  kv("fault_lose_camera_after", o.fault_lose_camera_after);
-  out << YAML::EndMap;
-  return std::string(out.c_str()) + "\n" + DriverLcmOptionsYaml(o);
+  return OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitAravisFields(options, v); });
 }
 
 AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
@@ -216,7 +180,7 @@ AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
       if (config_path.empty()) throw UsageError("--config: expected a file");
     } else {
       bool known = false;
-      for (const KeyInfo& info : kKeys) {
+      for (const KeyInfo& info : TopLevelKeys()) {
         const std::string flag = FlagOf(info.key);
         if (name == flag) {
           overrides[info.key] = info.is_bool ? (arg.Flag() ? "true" : "false") : arg.Value();

@@ -4,24 +4,12 @@
 #include <cmath>
 #include <sstream>
 
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 #include "vilma/drivers/driver_status.h"
 #include "vilma/drivers/lcm_url.h"
 
 namespace vilma {
-namespace {
-
-std::string Quoted(const std::string& text) {
-  std::string out = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
-}  // namespace
-
 std::string DriverLcmOptions::DataChannel() const { return ChannelName(channel, channel_suffix); }
 
 std::string DriverLcmOptions::StatusChannel() const {
@@ -47,24 +35,13 @@ std::string DriverLcmOptions::ValidateLcm() const {
 }
 
 void ReadDriverLcmOptions(const YamlNode& node, DriverLcmOptions* o) {
-  o->lcm_url = node.GetOr<std::string>("lcm_url", o->lcm_url);
-  o->channel = node.GetOr<std::string>("channel", o->channel);
-  o->channel_suffix = node.GetOr<std::string>("channel_suffix", o->channel_suffix);
-  o->status_channel = node.GetOr<std::string>("status_channel", o->status_channel);
-  o->status_period_s = node.GetOr<double>("status_period_s", o->status_period_s);
-  o->seconds = node.GetOr<double>("seconds", o->seconds);
+  VisitDriverLcmFields(*o, [&node](const char*, const char* key, auto& field) {
+    ReadOptionField(node, key, MissingKey::kKeepDefault, &field);
+  });
 }
 
 std::string DriverLcmOptionsYaml(const DriverLcmOptions& o) {
-  std::ostringstream y;
-  y.precision(17);
-  y << "lcm_url: " << Quoted(o.lcm_url) << "\n";
-  y << "channel: " << Quoted(o.channel) << "\n";
-  y << "channel_suffix: " << Quoted(o.channel_suffix) << "\n";
-  y << "status_channel: " << Quoted(o.status_channel) << "\n";
-  y << "status_period_s: " << o.status_period_s << "\n";
-  y << "seconds: " << o.seconds << "\n";
-  return y.str();
+  return OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitDriverLcmFields(options, v); });
 }
 
 bool ParseDriverLcmFlag(ArgCursor& arg, DriverLcmOptions* o) {

@@ -8,6 +8,7 @@
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/clock_sync_yaml.h"
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 #include "vilma/drivers/driver_status.h"
 #include "vilma/drivers/lcm_url.h"
@@ -102,44 +103,59 @@ std::string UsbImuOptions::Validate() const {
   return "";
 }
 
+// The field list (core/options_fields.h): reader and --print-config's writer. USB ids are
+// written in hex, as lsusb shows them (YAML reads 0x199b as an integer).
+template <typename Options, typename Visitor>
+void VisitUsbImuFields(Options& o, Visitor&& v) {
+  v("", "transport", o.transport);
+  v("", "serial_device", o.serial_device);
+  v("", "baud", o.baud);
+  v("", "usb_vendor_id",
+    WithCodec(o.usb_vendor_id,
+              [](const YamlNode& node, const char* key, int* id) { *id = node.Get<int>(key); },
+              [](int id) { return Hex(id); }));
+  v("", "usb_product_ids",
+    WithCodec(o.usb_product_ids,
+              [](const YamlNode& node, const char* key, std::vector<int>* ids) {
+                const char* expected = "expected a list of 16-bit ids like [0x3065, 0x3d65]";
+                const YAML::Node list = SequenceOrFail(node, key, expected);
+                ids->clear();
+                for (const YAML::Node& id : list) {
+                  try {
+                    ids->push_back(id.as<int>());
+                  } catch (const YAML::Exception&) {
+                    node.Fail(key, expected);
+                  }
+                }
+              },
+              [](const std::vector<int>& ids) {
+                std::string text = "[";
+                for (std::size_t i = 0; i < ids.size(); ++i) text += (i ? ", " : "") + Hex(ids[i]);
+                return text + "]";
+              }));
+  v("", "usb_serial", o.usb_serial);
+  v("", "replay_file", o.replay_file);
+  v("", "replay_rate", o.replay_rate);
+  v("", "family", o.family);
+  v("", "configure", o.configure);
+  v("", "rate_hz", o.rate_hz);
+  v("", "lowpass", o.lowpass);
+  v("", "lowpass_cutoff_hz", o.lowpass_cutoff_hz);
+  v("", "command_timeout_ms", o.command_timeout_ms);
+  v("", "command_retries", o.command_retries);
+  v("", "time_source", o.time_source);
+  v("", "transport_latency_us", o.transport_latency_us);
+  VisitClockSyncFields(o.clock_sync, InSection("clock_sync", v));
+  v("", "stall_timeout_s", o.stall_timeout_s);
+  v("", "reconnect_max_backoff_s", o.reconnect_max_backoff_s);
+  VisitDriverLcmFields(o, v);
+}
+
 UsbImuOptions ReadUsbImuOptions(const YamlNode& node) {
   UsbImuOptions o;
-  if (node.raw().IsNull()) return o;  // an empty file: all defaults
-  if (!node.IsMap()) node.Fail("", "expected a map of vilma-usb-imu options");
-  o.transport = node.GetOr("transport", o.transport);
-  o.serial_device = node.GetOr("serial_device", o.serial_device);
-  o.baud = node.GetOr("baud", o.baud);
-  o.usb_vendor_id = node.GetOr("usb_vendor_id", o.usb_vendor_id);
-  if (node.Has("usb_product_ids")) {
-    const YAML::Node ids = node.raw()["usb_product_ids"];
-    const char* expected = "expected a list of 16-bit ids like [0x3065, 0x3d65]";
-    if (!ids.IsSequence()) node.Fail("usb_product_ids", expected);
-    o.usb_product_ids.clear();
-    for (const YAML::Node& id : ids) {
-      try {
-        o.usb_product_ids.push_back(id.as<int>());
-      } catch (const YAML::Exception&) {
-        node.Fail("usb_product_ids", expected);
-      }
-    }
-  }
-  o.usb_serial = node.GetOr("usb_serial", o.usb_serial);
-  o.replay_file = node.GetOr("replay_file", o.replay_file);
-  o.replay_rate = node.GetOr("replay_rate", o.replay_rate);
-  o.family = node.GetOr("family", o.family);
-  o.configure = node.GetOr("configure", o.configure);
-  o.rate_hz = node.GetOr("rate_hz", o.rate_hz);
-  o.lowpass = node.GetOr("lowpass", o.lowpass);
-  o.lowpass_cutoff_hz = node.GetOr("lowpass_cutoff_hz", o.lowpass_cutoff_hz);
-  o.command_timeout_ms = node.GetOr("command_timeout_ms", o.command_timeout_ms);
-  o.command_retries = node.GetOr("command_retries", o.command_retries);
-  o.time_source = node.GetOr("time_source", o.time_source);
-  o.transport_latency_us = node.GetOr("transport_latency_us", o.transport_latency_us);
-  if (node.Has("clock_sync")) o.clock_sync = ReadClockSyncOptions(node.MapChild("clock_sync"), o.clock_sync);
-  ReadDriverLcmOptions(node, &o);
-  o.stall_timeout_s = node.GetOr("stall_timeout_s", o.stall_timeout_s);
-  o.reconnect_max_backoff_s = node.GetOr("reconnect_max_backoff_s", o.reconnect_max_backoff_s);
-  node.CheckNoUnknownKeys();
+  if (!node.raw().IsNull() && !node.IsMap()) node.Fail("", "expected a map of vilma-usb-imu options");
+  ReadOptionFields(node, MissingKey::kKeepDefault, &o,
+                   [](auto& options, auto&& v) { VisitUsbImuFields(options, v); });
   node.CheckValid(o.Validate());
   return o;
 }
@@ -149,35 +165,7 @@ UsbImuOptions LoadUsbImuOptions(const std::string& path) {
 }
 
 std::string UsbImuOptionsToYaml(const UsbImuOptions& o) {
-  YAML::Emitter out;
-  auto kv = [&out](const char* key, const auto& value) {
-    out << YAML::Key << key << YAML::Value << value;
-  };
-  out << YAML::BeginMap;
-  kv("transport", o.transport);
-  kv("serial_device", o.serial_device);
-  kv("baud", o.baud);
-  out << YAML::Key << "usb_vendor_id" << YAML::Value << YAML::Hex << o.usb_vendor_id << YAML::Dec;
-  out << YAML::Key << "usb_product_ids" << YAML::Value << YAML::Flow << YAML::BeginSeq;
-  for (int id : o.usb_product_ids) out << YAML::Hex << id;
-  out << YAML::Dec << YAML::EndSeq;
-  kv("usb_serial", o.usb_serial);
-  kv("replay_file", o.replay_file);
-  kv("replay_rate", o.replay_rate);
-  kv("family", o.family);
-  kv("configure", o.configure);
-  kv("rate_hz", o.rate_hz);
-  kv("lowpass", o.lowpass);
-  kv("lowpass_cutoff_hz", o.lowpass_cutoff_hz);
-  kv("command_timeout_ms", o.command_timeout_ms);
-  kv("command_retries", o.command_retries);
-  kv("time_source", o.time_source);
-  kv("transport_latency_us", o.transport_latency_us);
-  EmitClockSyncOptions(out, "clock_sync", o.clock_sync);
-  kv("stall_timeout_s", o.stall_timeout_s);
-  kv("reconnect_max_backoff_s", o.reconnect_max_backoff_s);
-  out << YAML::EndMap;
-  return std::string(out.c_str()) + "\n" + DriverLcmOptionsYaml(o);
+  return OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitUsbImuFields(options, v); });
 }
 
 UsbImuCommandLine ParseUsbImuCommandLine(int argc, const char* const* argv) {

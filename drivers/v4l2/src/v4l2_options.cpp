@@ -2,10 +2,13 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <map>
 #include <sstream>
+#include <vector>
 
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/validate.h"
 #include "vilma/drivers/driver_status.h"
 #include "vilma/drivers/lcm_url.h"
@@ -44,10 +47,6 @@ std::vector<std::string> SplitComma(const std::string& text) {
   return parts;
 }
 
-double NumberOr(const YamlNode& node, const std::string& key, double fallback) {
-  return node.GetOr<double>(key, fallback);
-}
-
 }  // namespace
 
 bool ParseExposure(const std::string& text, double* exposure_us) {
@@ -81,69 +80,105 @@ std::string V4l2DriverOptions::Validate() const {
   return "";
 }
 
+namespace {
+
+// The field list (core/options_fields.h): reader and --print-config's writer. Fields with a
+// form of their own: formats by fourcc name, exposure and gain "auto" or a number, controls a
+// map of v4l2-ctl name to integer, the stamp source by name.
+template <typename Options, typename Visitor>
+void VisitV4l2Fields(Options& o, Visitor&& v) {
+  auto& c = o.capture;
+  v("", "device", c.device);
+  v("", "formats",
+    WithCodec(c.format.fourccs,
+              [](const YamlNode& node, const char* key, std::vector<uint32_t>* fourccs) {
+                const char* expected = "a list of fourccs, e.g. [GREY, YUYV, MJPG]";
+                std::vector<std::string> names;
+                for (const YAML::Node& item : SequenceOrFail(node, key, expected)) {
+                  if (!item.IsScalar()) node.Fail(key, expected);
+                  names.push_back(item.Scalar());
+                }
+                const std::string error = ParseFourccs(names, fourccs);
+                if (!error.empty()) node.Fail(key, error);
+              },
+              [](const std::vector<uint32_t>& fourccs) {
+                std::string text = "[";
+                for (std::size_t i = 0; i < fourccs.size(); ++i) {
+                  text += (i ? ", " : "") + FormatYamlScalar(FourccName(fourccs[i]));
+                }
+                return text + "]";
+              }));
+  v("", "width", c.format.width);
+  v("", "height", c.format.height);
+  v("", "fps", c.format.fps);
+  v("", "require_size", c.format.require_size);
+  v("", "require_fps", c.format.require_fps);
+  v("", "keep_16_bit", c.keep_16_bit);
+  v("", "buffers", c.buffers);
+  v("", "exposure",
+    WithCodec(c.controls.exposure_us,
+              [](const YamlNode& node, const char* key, double* exposure_us) {
+                if (!ParseExposure(node.Get<std::string>(key), exposure_us)) {
+                  node.Fail(key, "auto or a positive exposure time [us]");
+                }
+              },
+              [](double exposure_us) {
+                return exposure_us > 0.0 ? FormatYamlScalar(exposure_us) : std::string("auto");
+              }));
+  v("", "gain",
+    WithCodec(c.controls.gain,
+              [](const YamlNode& node, const char* key, int* gain) {
+                if (!ParseGain(node.Get<std::string>(key), gain)) {
+                  node.Fail(key, "auto or an integer >= 0 (the camera's gain units)");
+                }
+              },
+              [](int gain) { return gain < 0 ? std::string("auto") : std::to_string(gain); }));
+  v("", "controls",
+    WithCodec(c.controls.controls,
+              [](const YamlNode& node, const char* key, std::map<std::string, int64_t>* controls) {
+                const YamlNode map = node.Child(key);
+                if (!map.IsMap()) node.Fail(key, "a map of control name: integer value");
+                controls->clear();
+                for (const auto& kv : map.raw()) {
+                  const std::string name = kv.first.as<std::string>();
+                  (*controls)[name] = map.Get<int64_t>(name);
+                }
+              },
+              [](const std::map<std::string, int64_t>& controls) {
+                std::string text = "{";
+                for (const auto& [name, value] : controls) {
+                  text += (text.size() > 1 ? ", " : "") + name + ": " + std::to_string(value);
+                }
+                return text + "}";
+              }));
+  v("", "exposure_readback_s", c.exposure_readback_s);
+  v("timestamps", "mid_exposure", c.timestamps.mid_exposure);
+  v("timestamps", "stamp_source",
+    WithCodec(c.timestamps.stamp_source,
+              [](const YamlNode& node, const char* key, StampPoint* point) {
+                if (!ParseStampPoint(node.Get<std::string>(key), point)) {
+                  node.Fail(key, "auto, start_of_exposure, end_of_exposure or end_of_frame");
+                }
+              },
+              [](StampPoint point) { return StampPointName(point); }));
+  v("timestamps", "readout_us", c.timestamps.readout_us);
+  v("timestamps", "offset_refresh_s", c.timestamps.offset_refresh_s);
+  v("timestamps", "realtime_step_ms", c.timestamps.realtime_step_ms);
+  v("recovery", "reconnect_initial_s", c.reconnect_initial_s);
+  v("recovery", "reconnect_max_s", c.reconnect_max_s);
+  v("recovery", "frame_timeout_s", c.frame_timeout_s);
+  v("", "camera_id", o.camera_id);
+  VisitDriverLcmFields(o, v);
+}
+
+}  // namespace
+
 V4l2DriverOptions ReadV4l2Options(const YamlNode& root, const V4l2DriverOptions& defaults) {
   if (!root.IsMap()) root.Fail("", "a map of vilma-v4l2 options");
   V4l2DriverOptions o = defaults;
   o.config_file = root.file();
-  CaptureOptions& c = o.capture;
-  c.device = root.GetOr<std::string>("device", c.device);
-  if (root.Has("formats")) {
-    const YamlNode list = root.Child("formats");
-    if (!list.IsSequence()) root.Fail("formats", "a list of fourccs, e.g. [GREY, YUYV, MJPG]");
-    std::vector<std::string> names;
-    for (const YAML::Node& item : list.raw()) {
-      if (!item.IsScalar()) root.Fail("formats", "a list of fourccs, e.g. [GREY, YUYV, MJPG]");
-      names.push_back(item.Scalar());
-    }
-    const std::string error = ParseFourccs(names, &c.format.fourccs);
-    if (!error.empty()) root.Fail("formats", error);
-  }
-  c.format.width = root.GetOr<int>("width", c.format.width);
-  c.format.height = root.GetOr<int>("height", c.format.height);
-  c.format.fps = NumberOr(root, "fps", c.format.fps);
-  c.format.require_size = root.GetOr<bool>("require_size", c.format.require_size);
-  c.format.require_fps = root.GetOr<bool>("require_fps", c.format.require_fps);
-  c.keep_16_bit = root.GetOr<bool>("keep_16_bit", c.keep_16_bit);
-  c.buffers = root.GetOr<int>("buffers", c.buffers);
-  if (root.Has("exposure") &&
-      !ParseExposure(root.Get<std::string>("exposure"), &c.controls.exposure_us)) {
-    root.Fail("exposure", "auto or a positive exposure time [us]");
-  }
-  if (root.Has("gain") && !ParseGain(root.Get<std::string>("gain"), &c.controls.gain)) {
-    root.Fail("gain", "auto or an integer >= 0 (the camera's gain units)");
-  }
-  if (root.Has("controls")) {
-    const YamlNode controls = root.Child("controls");
-    if (!controls.IsMap()) root.Fail("controls", "a map of control name: integer value");
-    c.controls.controls.clear();
-    for (const auto& kv : controls.raw()) {
-      const std::string name = kv.first.as<std::string>();
-      c.controls.controls[name] = controls.Get<int64_t>(name);
-    }
-  }
-  c.exposure_readback_s = NumberOr(root, "exposure_readback_s", c.exposure_readback_s);
-  if (root.Has("timestamps")) {
-    const YamlNode t = root.MapChild("timestamps");
-    c.timestamps.mid_exposure = t.GetOr<bool>("mid_exposure", c.timestamps.mid_exposure);
-    c.timestamps.readout_us = NumberOr(t, "readout_us", c.timestamps.readout_us);
-    if (t.Has("stamp_source") &&
-        !ParseStampPoint(t.Get<std::string>("stamp_source"), &c.timestamps.stamp_source)) {
-      t.Fail("stamp_source", "auto, start_of_exposure, end_of_exposure or end_of_frame");
-    }
-    c.timestamps.offset_refresh_s = NumberOr(t, "offset_refresh_s", c.timestamps.offset_refresh_s);
-    c.timestamps.realtime_step_ms = NumberOr(t, "realtime_step_ms", c.timestamps.realtime_step_ms);
-    t.CheckNoUnknownKeys();
-  }
-  if (root.Has("recovery")) {
-    const YamlNode r = root.MapChild("recovery");
-    c.reconnect_initial_s = NumberOr(r, "reconnect_initial_s", c.reconnect_initial_s);
-    c.reconnect_max_s = NumberOr(r, "reconnect_max_s", c.reconnect_max_s);
-    c.frame_timeout_s = NumberOr(r, "frame_timeout_s", c.frame_timeout_s);
-    r.CheckNoUnknownKeys();
-  }
-  ReadDriverLcmOptions(root, &o);
-  o.camera_id = root.GetOr<int>("camera_id", o.camera_id);
-  root.CheckNoUnknownKeys();
+  ReadOptionFields(root, MissingKey::kKeepDefault, &o,
+                   [](auto& options, auto&& v) { VisitV4l2Fields(options, v); });
   root.CheckValid(o.Validate());
   return o;
 }
@@ -153,50 +188,7 @@ V4l2DriverOptions LoadV4l2Options(const std::string& path) {
 }
 
 std::string V4l2OptionsYaml(const V4l2DriverOptions& o) {
-  const CaptureOptions& c = o.capture;
-  std::ostringstream y;
-  y.precision(10);
-  auto quoted = [](const std::string& s) { return "\"" + s + "\""; };
-  y << "device: " << quoted(c.device) << "\n";
-  y << "formats: [";
-  for (std::size_t i = 0; i < c.format.fourccs.size(); ++i) {
-    y << (i ? ", " : "") << quoted(FourccName(c.format.fourccs[i]));
-  }
-  y << "]\n";
-  y << "width: " << c.format.width << "\nheight: " << c.format.height << "\n";
-  y << "fps: " << c.format.fps << "\n";
-  y << "require_size: " << (c.format.require_size ? "true" : "false") << "\n";
-  y << "require_fps: " << (c.format.require_fps ? "true" : "false") << "\n";
-  y << "keep_16_bit: " << (c.keep_16_bit ? "true" : "false") << "\n";
-  y << "buffers: " << c.buffers << "\n";
-  y << "exposure: ";
-  if (c.controls.exposure_us > 0.0) {
-    y << c.controls.exposure_us << "\n";
-  } else {
-    y << "auto\n";
-  }
-  y << "gain: " << (c.controls.gain < 0 ? std::string("auto") : std::to_string(c.controls.gain))
-    << "\n";
-  y << "controls: {";
-  bool first = true;
-  for (const auto& kv : c.controls.controls) {
-    y << (first ? "" : ", ") << kv.first << ": " << kv.second;
-    first = false;
-  }
-  y << "}\n";
-  y << "exposure_readback_s: " << c.exposure_readback_s << "\n";
-  y << "timestamps:\n";
-  y << "  mid_exposure: " << (c.timestamps.mid_exposure ? "true" : "false") << "\n";
-  y << "  stamp_source: " << StampPointName(c.timestamps.stamp_source) << "\n";
-  y << "  readout_us: " << c.timestamps.readout_us << "\n";
-  y << "  offset_refresh_s: " << c.timestamps.offset_refresh_s << "\n";
-  y << "  realtime_step_ms: " << c.timestamps.realtime_step_ms << "\n";
-  y << "recovery:\n";
-  y << "  reconnect_initial_s: " << c.reconnect_initial_s << "\n";
-  y << "  reconnect_max_s: " << c.reconnect_max_s << "\n";
-  y << "  frame_timeout_s: " << c.frame_timeout_s << "\n";
-  y << "camera_id: " << o.camera_id << "\n";
-  return y.str() + DriverLcmOptionsYaml(o);
+  return OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitV4l2Fields(options, v); });
 }
 
 std::string V4l2Usage() {

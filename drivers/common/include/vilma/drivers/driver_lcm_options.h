@@ -33,12 +33,25 @@ struct DriverLcmOptions {
   std::string ValidateLcm() const;
 };
 
+// The field list of the keys above (core/options_fields.h), at the top level of a driver's
+// file: each driver's own field list visits it (Options = a struct derived from
+// DriverLcmOptions, const or not).
+template <typename Options, typename Visitor>
+void VisitDriverLcmFields(Options& o, Visitor&& v) {
+  v("", "lcm_url", o.lcm_url);
+  v("", "channel", o.channel);
+  v("", "channel_suffix", o.channel_suffix);
+  v("", "status_channel", o.status_channel);
+  v("", "status_period_s", o.status_period_s);
+  v("", "seconds", o.seconds);
+}
+
 // Reads the keys above that `node` has (absent ones keep their values). Marks them as known
 // for the caller's CheckNoUnknownKeys(); throws InputError for a wrong type.
 void ReadDriverLcmOptions(const YamlNode& node, DriverLcmOptions* options);
 
 // The keys above as block YAML lines ("key: value\n"), strings quoted, readable back by
-// ReadDriverLcmOptions: the drivers append it to their own --print-config output.
+// ReadDriverLcmOptions (OptionFieldsToYaml of the field list).
 std::string DriverLcmOptionsYaml(const DriverLcmOptions& options);
 
 // If the cursor's option is one of the flags above, consumes its value into *options and
