@@ -4,6 +4,7 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <vector>
 
 #include "vilma/core/error.h"
 #include "vilma/core/options_fields.h"
@@ -117,4 +118,136 @@ TEST_CASE("options fields: unknown keys and wrong values name file, key and expe
   CHECK_THROWS_WITH(Read("ransac: 3\n", MissingKey::kKeepDefault),
                     Catch::Contains("ransac") && Catch::Contains("map"));
   CHECK_THROWS_AS(Read("- a\n- b\n", MissingKey::kKeepDefault), vilma::InputError);
+}
+
+namespace {
+
+// Fields with their own YAML form, an embedded struct under a section, a list of strings.
+enum class Mode { kFast, kSlow };
+struct WithSpecialFields {
+  Mode mode = Mode::kFast;
+  double exposure_us = 0.0;  // 0 = "auto"
+  std::vector<std::string> channels = {"CAM0", "CAM1"};
+  Inner filter;  // its own field list, visited under "filter.inner"
+  std::string note_a = "a";
+  std::string note_b = "b";  // with note_a: one key "notes: a/b" sets both
+};
+
+template <typename Options, typename Visitor>
+void VisitInner(Options& o, Visitor&& v) {
+  v("", "sigma", o.sigma);
+  v("", "count", o.count);
+}
+
+template <typename Options, typename Visitor>
+void VisitSpecial(Options& o, Visitor&& v) {
+  v("", "mode",
+    vilma::WithCodec(
+        o.mode,
+        [](const vilma::YamlNode& node, const char* key, Mode* mode) {
+          const std::string text = node.Get<std::string>(key);
+          if (text != "fast" && text != "slow") node.Fail(key, "expected fast or slow");
+          *mode = text == "fast" ? Mode::kFast : Mode::kSlow;
+        },
+        [](Mode mode) { return std::string(mode == Mode::kFast ? "fast" : "slow"); }));
+  v("", "exposure",
+    vilma::WithCodec(
+        o.exposure_us,
+        [](const vilma::YamlNode& node, const char* key, double* us) {
+          const std::string text = node.Get<std::string>(key);
+          *us = text == "auto" ? 0.0 : node.Get<double>(key);
+        },
+        [](double us) { return us > 0.0 ? vilma::FormatYamlScalar(us) : std::string("auto"); }));
+  v("", "channels", o.channels);
+  VisitInner(o.filter, vilma::InSection("filter.inner", v));
+  // A key whose codec sets two members of the struct; written as a block (leading '\n').
+  v("", "notes",
+    vilma::WithCodec(
+        o,
+        [](const vilma::YamlNode& node, const char* key, WithSpecialFields* s) {
+          const vilma::YamlNode notes = node.MapChild(key);
+          s->note_a = notes.Get<std::string>("a");
+          s->note_b = notes.Get<std::string>("b");
+          notes.CheckNoUnknownKeys();
+        },
+        [](const WithSpecialFields& s) {
+          return "\n# two members\na: " + vilma::FormatYamlScalar(s.note_a) +
+                 "\nb: " + vilma::FormatYamlScalar(s.note_b) + "\n";
+        }));
+}
+
+WithSpecialFields ReadSpecial(const std::string& text, vilma::MissingKey missing) {
+  WithSpecialFields s;
+  vilma::ReadOptionFields(vilma::YamlNode::LoadString(text, "special.yaml"), missing, &s,
+                          [](auto& o, auto&& v) { VisitSpecial(o, v); });
+  return s;
+}
+
+std::string WriteSpecial(const WithSpecialFields& s) {
+  return vilma::OptionFieldsToYaml(s, [](auto& o, auto&& v) { VisitSpecial(o, v); });
+}
+
+}  // namespace
+
+TEST_CASE("options fields: codecs, embedded sections and string lists round-trip",
+          "[core][options]") {
+  WithSpecialFields s;
+  s.mode = Mode::kSlow;
+  s.exposure_us = 1250.5;
+  s.channels = {"LEFT", "with \"quote\""};
+  s.filter.sigma = 0.25;
+  s.filter.count = 11;
+  s.note_a = "x: y";
+  s.note_b = "";
+  const std::string yaml = WriteSpecial(s);
+  CHECK(yaml ==
+        "mode: slow\n"
+        "exposure: 1250.5\n"
+        "channels: [\"LEFT\", \"with \\\"quote\\\"\"]\n"
+        "filter:\n"
+        "  inner:\n"
+        "    sigma: 0.25\n"
+        "    count: 11\n"
+        "notes:\n"
+        "  # two members\n"
+        "  a: \"x: y\"\n"
+        "  b: \"\"\n");
+  for (const auto missing : {vilma::MissingKey::kRequired, vilma::MissingKey::kKeepDefault}) {
+    const WithSpecialFields back = ReadSpecial(yaml, missing);
+    CHECK(back.mode == Mode::kSlow);
+    CHECK(back.exposure_us == 1250.5);
+    CHECK(back.channels == s.channels);
+    CHECK(back.filter.sigma == 0.25);
+    CHECK(back.filter.count == 11);
+    CHECK(back.note_a == "x: y");
+    CHECK(back.note_b.empty());
+    CHECK(WriteSpecial(back) == yaml);
+  }
+  // The defaults write "auto" and read back to 0.
+  CHECK(ReadSpecial(WriteSpecial(WithSpecialFields()), vilma::MissingKey::kRequired).exposure_us ==
+        0.0);
+  // kKeepDefault: an absent codec key is not read (the codec is not called).
+  const WithSpecialFields kept = ReadSpecial("channels: []\n", vilma::MissingKey::kKeepDefault);
+  CHECK(kept.mode == Mode::kFast);
+  CHECK(kept.channels.empty());
+  CHECK(kept.note_a == "a");
+}
+
+TEST_CASE("options fields: codec and list errors name file and key", "[core][options]") {
+  using vilma::MissingKey;
+  CHECK_THROWS_WITH(ReadSpecial("mode: medium\n", MissingKey::kKeepDefault),
+                    Catch::Contains("special.yaml: mode: expected fast or slow"));
+  CHECK_THROWS_WITH(ReadSpecial("channels: CAM0\n", MissingKey::kKeepDefault),
+                    Catch::Contains("special.yaml: channels: expected a list of strings"));
+  CHECK_THROWS_WITH(ReadSpecial("channels: [[a]]\n", MissingKey::kKeepDefault),
+                    Catch::Contains("channels: expected a list of strings"));
+  CHECK_THROWS_WITH(ReadSpecial("filter:\n  inner:\n    sigmaa: 1\n", MissingKey::kKeepDefault),
+                    Catch::Contains("filter.inner") && Catch::Contains("sigmaa"));
+  CHECK_THROWS_WITH(ReadSpecial("notes: {a: x, b: y, c: z}\n", MissingKey::kKeepDefault),
+                    Catch::Contains("notes") && Catch::Contains("c"));
+  // A required codec key that is missing is named.
+  CHECK_THROWS_WITH(ReadSpecial("mode: fast\nexposure: auto\nchannels: []\n"
+                                "filter: {inner: {sigma: 1, count: 2}}\n",
+                                MissingKey::kRequired),
+                    Catch::Contains("notes"));
 }
