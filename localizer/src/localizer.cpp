@@ -64,6 +64,10 @@ void VisitLocalizerOptions(Options& o, Visitor&& v) {
   v("acceptance", "rival_max_iterations", o.acceptance.rival_max_iterations);
   v("acceptance", "rival_min_position_m", o.acceptance.rival_min_position_m);
   v("acceptance", "rival_min_rotation_deg", o.acceptance.rival_min_rotation_deg);
+  v("acceptance", "displaced_rival_check", o.acceptance.displaced_rival_check);
+  v("acceptance", "max_displaced_rival_ratio", o.acceptance.max_displaced_rival_ratio);
+  v("acceptance", "displaced_rival_samples", o.acceptance.displaced_rival_samples);
+  v("acceptance", "adopt_displaced_rival", o.acceptance.adopt_displaced_rival);
 }
 
 struct UnionFind {

@@ -1,5 +1,6 @@
 #include "vilma/localizer/pose_acceptance.h"
 
+#include "vilma/localizer/pose_ambiguity.h"
 #include "vilma/localizer/pose_consistency.h"
 
 #include <Eigen/Eigenvalues>
@@ -106,6 +107,10 @@ std::string PoseAcceptanceOptions::Validate() const {
   if (rival_max_iterations < 1) return "rival_max_iterations: expected >= 1";
   if (!(rival_min_position_m >= 0.0)) return "rival_min_position_m: expected >= 0";
   if (!(rival_min_rotation_deg >= 0.0)) return "rival_min_rotation_deg: expected >= 0";
+  if (!(max_displaced_rival_ratio > 0.0 && max_displaced_rival_ratio <= 100.0)) {
+    return "max_displaced_rival_ratio: expected in (0, 100]";
+  }
+  if (displaced_rival_samples < 1) return "displaced_rival_samples: expected >= 1";
   return "";
 }
 
@@ -254,10 +259,14 @@ void ImageSpread(const Camera& camera, const std::vector<Eigen::Vector2d>& point
                    (static_cast<double>(camera.width()) * static_cast<double>(camera.height()));
 }
 
-AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
-                        const std::vector<Eigen::Vector3d>& p_G, const PoseResult& pose,
-                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options,
-                        const std::vector<Eigen::Matrix3d>& p_G_covariance) {
+namespace {
+
+// AcceptPose; `may_adopt`: a displaced rival that explains more matches than the winner may
+// replace it (once: the rival's own run has may_adopt false).
+AcceptedPose AcceptPoseOnce(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
+                            const std::vector<Eigen::Vector3d>& p_G, const PoseResult& pose,
+                            const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options,
+                            const std::vector<Eigen::Matrix3d>& p_G_covariance, bool may_adopt) {
   const std::vector<Eigen::Matrix3d> exact;  // the landmarks taken as exact
   const std::vector<Eigen::Matrix3d>& landmark_covariance =
       options.landmark_uncertainty && p_G_covariance.size() == p_G.size() ? p_G_covariance
@@ -395,8 +404,51 @@ AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>
       return out;
     }
   }
+  if (options.displaced_rival_check) {
+    DisplacedRivalOptions d;
+    d.samples = options.displaced_rival_samples;
+    d.threshold_px = ransac.threshold_px;
+    d.min_position_m = options.rival_min_position_m;
+    d.min_rotation_deg = options.rival_min_rotation_deg;
+    d.refine_iterations = std::max(1, ransac.refine_iterations);
+    d.seed = ransac.seed + 2;
+    const DisplacedRival rival =
+        FindDisplacedRival(camera, keypoints, p_G, out.inliers, errors, out.T_G_C, d);
+    q.displaced_rival_inliers = rival.found ? rival.inliers : 0;
+    q.displaced_rival_ratio = static_cast<double>(q.displaced_rival_inliers) / q.inliers;
+    q.displaced_rival_position_m = rival.position_m;
+    q.displaced_rival_rotation_deg = rival.rotation_deg;
+    if (may_adopt && rival.found && q.displaced_rival_inliers > q.inliers) {
+      // RANSAC's own criterion (most inliers) prefers the rival: the P3P samples missed it
+      // (it needs a match the winner rejects, e.g. at another depth). It replaces the winner
+      // and goes through every gate itself, the displaced-rival search included (the old
+      // winner is now a displaced rival with fewer inliers).
+      PoseResult adopted;
+      adopted.status = PoseStatus::kOk;
+      adopted.T_G_C = rival.T_G_C;
+      adopted.inliers = Below(Errors(camera, keypoints, p_G, rival.T_G_C), ransac.threshold_px);
+      AcceptedPose again = AcceptPoseOnce(camera, keypoints, p_G, adopted, ransac, options,
+                                          p_G_covariance, /*may_adopt=*/false);
+      again.quality.adopted_displaced_rival = true;
+      return again;
+    }
+    if (q.displaced_rival_ratio > options.max_displaced_rival_ratio) {
+      out.verdict = PoseVerdict::kAmbiguousPose;
+      return out;
+    }
+  }
   out.verdict = PoseVerdict::kAccepted;
   return out;
+}
+
+}  // namespace
+
+AcceptedPose AcceptPose(const Camera& camera, const std::vector<Eigen::Vector2d>& keypoints,
+                        const std::vector<Eigen::Vector3d>& p_G, const PoseResult& pose,
+                        const PoseRansacOptions& ransac, const PoseAcceptanceOptions& options,
+                        const std::vector<Eigen::Matrix3d>& p_G_covariance) {
+  return AcceptPoseOnce(camera, keypoints, p_G, pose, ransac, options, p_G_covariance,
+                        options.adopt_displaced_rival);
 }
 
 }  // namespace vilma::localizer

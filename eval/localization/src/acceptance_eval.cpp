@@ -28,6 +28,55 @@ double LargestSigma(const Eigen::Matrix3d& covariance) {
   return std::sqrt(std::max(0.0, es.eigenvalues().maxCoeff()));
 }
 
+// |reprojection error| of p_G seen at uv from T_G_C, -1 when it does not project.
+double ReprojectionError(const Camera& camera, const Transformation& T_G_C,
+                         const Eigen::Vector3d& p_G, const Eigen::Vector2d& uv) {
+  const Eigen::Vector3d p_C = T_G_C.inverse() * p_G;
+  Eigen::Vector2d projected;
+  if (p_C.z() <= 1e-6 || camera.Project(p_C, &projected) != Camera::ProjectionResult::kValid) {
+    return -1.0;
+  }
+  return (projected - uv).norm();
+}
+
+std::vector<MatchRecord> RecordMatches(const Camera& camera, const LocalizationMap& map,
+                                       const std::vector<Eigen::Vector2d>& keypoints,
+                                       const LocalizationResult& r,
+                                       const Transformation& T_G_C_gt,
+                                       const AcceptanceGates& gates) {
+  std::vector<bool> is_inlier(r.matches.size(), false);
+  for (int i : r.inliers) is_inlier[static_cast<std::size_t>(i)] = true;
+  const Eigen::Matrix3d R_C_G_gt = T_G_C_gt.rotation().inverse().toRotationMatrix();
+  std::vector<MatchRecord> records;
+  for (std::size_t i = 0; i < r.matches.size(); ++i) {
+    const Match2D3D& m = r.matches[i];
+    MatchRecord rec;
+    rec.keypoint = m.keypoint;
+    rec.uv = keypoints[static_cast<std::size_t>(m.keypoint)];
+    rec.inlier = is_inlier[i];
+    const Eigen::Vector3d& p_G = map.p_G[m.landmark];
+    rec.error_estimate_px = ReprojectionError(camera, r.T_G_C, p_G, rec.uv);
+    rec.error_truth_px = ReprojectionError(camera, T_G_C_gt, p_G, rec.uv);
+    rec.oracle = rec.error_truth_px >= 0.0 && rec.error_truth_px <= gates.oracle_threshold_px;
+    if (!rec.inlier && !rec.oracle) continue;
+    const Eigen::Vector3d p_C = T_G_C_gt.inverse() * p_G;
+    rec.depth_m = p_C.z();
+    rec.observers = static_cast<int>(map.observer_begin[m.landmark + 1] -
+                                     map.observer_begin[m.landmark]);
+    if (!map.p_G_covariance.empty()) {
+      const Eigen::Matrix3d cov_C =
+          R_C_G_gt * map.p_G_covariance[m.landmark].cast<double>() * R_C_G_gt.transpose();
+      const Eigen::Vector3d ray = p_C.normalized();
+      rec.sigma_ray_m = std::sqrt(std::max(0.0, ray.dot(cov_C * ray)));
+      rec.sigma_max_m = LargestSigma(cov_C);
+    }
+    records.push_back(rec);
+  }
+  std::sort(records.begin(), records.end(),
+            [](const MatchRecord& a, const MatchRecord& b) { return a.depth_m < b.depth_m; });
+  return records;
+}
+
 }  // namespace
 
 bool QueryPerturbation::IsIdentity() const {
@@ -128,6 +177,10 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
       q.residuals = InlierResidualSamples(camera, localizer.map(), keypoints, r,
                                           localizer.options().ransac.keypoint_sigma_px);
     }
+    const Transformation T_G_C_gt = T_G_I_gt * T_I_C;
+    q.position_error_C =
+        T_G_C_gt.rotation().inverse() * (r.T_G_C.translation() - T_G_C_gt.translation());
+    q.match_records = RecordMatches(camera, localizer.map(), keypoints, r, T_G_C_gt, gates);
   }
   return q;
 }
@@ -252,7 +305,8 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
   std::ostringstream s;
   s << "frame  status                    kpts  match  inl  oracle  possible  pos[m]  rot[deg]"
        "  sigma_p[m]  sigma_R[deg]  verdict   ratio  med/p90[px]  cells  hull  sp[m] sR[deg] "
-       "rival  rival_d[m/deg]  chi2/dof  split_img[m/deg/d2]  split_depth[m/deg/d2]\n";
+       "rival  rival_d[m/deg]  chi2/dof  split_img[m/deg/d2]  split_depth[m/deg/d2]  "
+       "displaced[ratio m/deg]\n";
   for (const AcceptanceQuery& q : queries) {
     s << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
       << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
@@ -277,9 +331,38 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
       << std::setprecision(2) << g.split_image_rotation_deg << "/" << std::setprecision(1)
       << g.split_image_mahalanobis2 << std::setprecision(3) << std::setw(8)
       << g.split_depth_position_m << "/" << std::setprecision(2) << g.split_depth_rotation_deg
-      << "/" << std::setprecision(1) << g.split_depth_mahalanobis2;
+      << "/" << std::setprecision(1) << g.split_depth_mahalanobis2 << std::setprecision(2)
+      << std::setw(7) << g.displaced_rival_ratio << " " << g.displaced_rival_position_m << "/"
+      << g.displaced_rival_rotation_deg << (g.adopted_displaced_rival ? " adopted" : "");
     s << "\n";
   }
+  out << s.str();
+}
+
+void WriteMatchRecords(std::ostream& out, const AcceptanceQuery& q) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(3) << "frame " << q.frame << " "
+    << LocalizationStatusName(q.status) << ": position error in the true camera frame (x right, "
+    << "y down, z forward) [" << q.position_error_C.x() << ", " << q.position_error_C.y() << ", "
+    << q.position_error_C.z() << "] m, rotation error " << q.rotation_error_deg << " deg\n";
+  s << "    u       v  inlier oracle  err_est[px] err_truth[px]  depth[m]  obs  sigma_ray[m] "
+       "sigma_max[m]\n";
+  std::vector<double> inlier_depths, inlier_truth_errors;
+  for (const MatchRecord& m : q.match_records) {
+    s << std::setprecision(1) << std::setw(6) << m.uv.x() << std::setw(8) << m.uv.y()
+      << std::setw(6) << (m.inlier ? "y" : "n") << std::setw(7) << (m.oracle ? "y" : "n")
+      << std::setprecision(2) << std::setw(13) << m.error_estimate_px << std::setw(14)
+      << m.error_truth_px << std::setw(10) << m.depth_m << std::setw(5) << m.observers
+      << std::setprecision(3) << std::setw(14) << m.sigma_ray_m << std::setw(13) << m.sigma_max_m
+      << "\n";
+    if (m.inlier) {
+      inlier_depths.push_back(m.depth_m);
+      inlier_truth_errors.push_back(m.error_truth_px);
+    }
+  }
+  s << std::setprecision(2) << "inliers " << inlier_depths.size() << ": depth median "
+    << Median(inlier_depths) << " m, error under the truth median " << Median(inlier_truth_errors)
+    << " px\n";
   out << s.str();
 }
 

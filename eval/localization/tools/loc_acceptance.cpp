@@ -79,6 +79,10 @@ void PrintHelp(std::ostream& out) {
          "  --name NAME     the data set's name in the table (asl; default: DATASET's folder)\n"
          "  --header        print the table header first\n"
          "  --queries       one line per query before the row\n"
+         "  --inliers FRAME if query FRAME is accepted: its position error in the camera\n"
+         "                  frame and one line per inlier and per match that agrees with\n"
+         "                  the ground truth (errors under both poses, depth, observers,\n"
+         "                  landmark sigma), before the row (repeatable)\n"
          "  -h, --help      this text\n"
          "\n"
          "exit codes: 0 ok (whatever the figures), 1 input error, 2 usage error\n";
@@ -90,6 +94,7 @@ struct Args {
   int every = 1, first = 0, camera = 0;
   QueryPerturbation perturbation;
   bool header = false, queries = false, help = false;
+  std::vector<int> inlier_frames;  // --inliers: match records of these frames when accepted
 };
 
 Args Parse(const std::vector<std::string>& argv) {
@@ -130,6 +135,8 @@ Args Parse(const std::vector<std::string>& argv) {
       a.header = true;
     } else if (n == "--queries") {
       a.queries = true;
+    } else if (n == "--inliers") {
+      a.inlier_frames.push_back(arg.IntValue(0));
     } else if (arg.is_option()) {
       throw UsageError("unknown option '" + n + "'");
     } else {
@@ -186,6 +193,16 @@ bool GroundTruthAt(const std::vector<GroundTruthState>& gt, int64_t t, Transform
   return true;
 }
 
+void WriteRequestedRecords(const Args& a, const std::vector<AcceptanceQuery>& queries,
+                           std::ostream& out) {
+  for (const AcceptanceQuery& q : queries) {
+    if (q.accepted && std::find(a.inlier_frames.begin(), a.inlier_frames.end(), q.frame) !=
+                          a.inlier_frames.end()) {
+      WriteMatchRecords(out, q);
+    }
+  }
+}
+
 void RunKitti(const Args& a, const LocalizerOptions& options, std::ostream& out) {
   const KittiSequence seq = LoadKittiSequence(a.input);
   KittiLocalizationOptions kitti;
@@ -206,6 +223,7 @@ void RunKitti(const Args& a, const LocalizerOptions& options, std::ostream& out)
       out << "\n" << s.name << ": " << s.description << "\n";
       WriteAcceptanceQueries(out, q);
     }
+    WriteRequestedRecords(a, q, out);
     WriteAcceptanceRow(out, SummarizeAcceptance("kitti " + s.name, q));
     out.flush();
   }
@@ -274,6 +292,7 @@ void RunAsl(const Args& a, const LocalizerOptions& options, std::ostream& out) {
     out << "\n" << name << "\n";
     WriteAcceptanceQueries(out, queries);
   }
+  WriteRequestedRecords(a, queries, out);
   WriteAcceptanceRow(out, SummarizeAcceptance(name, queries));
 }
 

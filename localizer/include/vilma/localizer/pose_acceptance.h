@@ -76,6 +76,21 @@ struct PoseAcceptanceOptions {
   // landmarks of the winner's points, whose depths differ) and does not count.
   double rival_min_position_m = 0.3;
   double rival_min_rotation_deg = 2.0;
+  // Displaced rival (pose_ambiguity.h): the best pose beyond rival_min_position_m OR
+  // rival_min_rotation_deg from the winner that shares the winner's inliers (P3P on two of
+  // them and one match the winner rejects, displaced_rival_samples samples); its inliers over
+  // the winner's must not exceed max_displaced_rival_ratio. It rejects a winner that the data
+  // do not pin to within the accuracy the benchmark asks (a sideways shift traded for a
+  // rotation when the inliers lie in one depth band). Values above 1 only measure (a rival
+  // with more inliers than the winner is then still tolerated up to that ratio).
+  // adopt_displaced_rival: a displaced rival with more inliers than the winner replaces it
+  // (LO-RANSAC's rule: the most inliers wins; the rival then runs every gate itself).
+  // On by default since 2026-11-27: it turned euroc corner frame 71 (2.2 deg off) into a
+  // right pose (docs/localizer.md, "Displaced rival").
+  bool displaced_rival_check = true;
+  double max_displaced_rival_ratio = 1.0;
+  int displaced_rival_samples = 300;
+  bool adopt_displaced_rival = true;
   std::string Validate() const;
 };
 
@@ -117,6 +132,13 @@ struct PoseQuality {
   double rival_ratio = -1.0;
   double rival_position_m = -1.0;   // how far the best rival model is from the winner
   double rival_rotation_deg = -1.0;
+  // Displaced rival (when displaced_rival_check ran): its inliers, their ratio to the winner's
+  // and its distance to the winner.
+  int displaced_rival_inliers = -1;
+  double displaced_rival_ratio = -1.0;
+  double displaced_rival_position_m = -1.0;
+  double displaced_rival_rotation_deg = -1.0;
+  bool adopted_displaced_rival = false;  // the pose is a displaced rival that replaced the winner
 };
 
 struct AcceptedPose {

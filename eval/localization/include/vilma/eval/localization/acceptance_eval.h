@@ -58,6 +58,21 @@ struct AcceptanceGates {
   int oracle_min_matches = 12;
 };
 
+// One match of an accepted query, for diagnosis (vilma-loc-acceptance --inliers): every
+// inlier of the estimate and every match that agrees with the ground truth (the oracle's).
+struct MatchRecord {
+  int keypoint = 0;
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();  // the query keypoint [px]
+  bool inlier = false;                           // of the accepted estimate
+  bool oracle = false;                           // within oracle_threshold_px under the truth
+  double error_estimate_px = -1.0;  // |reprojection error| under the estimate (-1: not seen)
+  double error_truth_px = -1.0;     // likewise under the ground truth
+  double depth_m = -1.0;            // landmark depth in the true query camera
+  int observers = 0;                // map vertices observing the landmark
+  double sigma_ray_m = -1.0;        // landmark sigma along the query ray (-1: no covariance)
+  double sigma_max_m = -1.0;        // and along its worst direction
+};
+
 struct AcceptanceQuery {
   int frame = 0;
   LocalizationStatus status = LocalizationStatus::kNoKeypoints;
@@ -77,6 +92,10 @@ struct AcceptanceQuery {
   double pose_ms = 0.0;              // of which RANSAC, refinement and gates (CPU)
   // A right pose's inlier residuals (residual_calibration.h; empty unless accepted and right).
   std::vector<ResidualSample> residuals;
+  // Accepted queries: estimate minus truth of the camera position in the true camera frame
+  // (x right, y down, z forward) [m], and the inliers' and the oracle's matches.
+  Eigen::Vector3d position_error_C = Eigen::Vector3d::Zero();
+  std::vector<MatchRecord> match_records;
 };
 
 // Localizes one query (camera C with extrinsics T_I_C) and judges it against T_G_I_gt.
@@ -121,5 +140,8 @@ void WriteAcceptanceHeader(std::ostream& out);
 void WriteAcceptanceRow(std::ostream& out, const AcceptanceSummary& summary);
 // One line per query (frame, status, counts, oracle, errors, sigmas).
 void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery>& queries);
+// An accepted query's position error in its camera frame and one line per match record
+// (sorted by depth), with a summary of the inliers' depths and error under the truth.
+void WriteMatchRecords(std::ostream& out, const AcceptanceQuery& query);
 
 }  // namespace vilma::eval
