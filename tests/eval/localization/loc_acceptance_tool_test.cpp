@@ -65,11 +65,19 @@ TEST_CASE("vilma-loc-acceptance: a KITTI scenario's row and per-query lines",
   CHECK(Run(kTool + " kitti '" + dir.string() + "' --scenario bogus", &out) == 2);
   CHECK_THAT(out, Catch::Contains("unknown scenario 'bogus'"));
   // few-keypoints: the 100 best query keypoints; quick (small queries).
-  REQUIRE(Run(kTool + " kitti '" + dir.string() + "' --scenario few-keypoints --queries", &out) ==
-          0);
+  // --inliers: frame 1 is accepted (a right pose), frame 2 is a map frame, not a query.
+  REQUIRE(Run(kTool + " kitti '" + dir.string() +
+                  "' --scenario few-keypoints --queries --inliers 1 --inliers 2",
+              &out) == 0);
   INFO(out);
   CHECK_THAT(out, Catch::Contains("| kitti few-keypoints | 25 |"));
   CHECK_THAT(out, Catch::Contains("frame  status"));
   CHECK_THAT(out, Catch::Contains("  100 "));  // keypoints per query after the perturbation
   CHECK_THAT(out, !Catch::Contains("WRONG"));
+  CHECK_THAT(out, Catch::Contains("frame 1 ok: position error in the true camera frame"));
+  CHECK_THAT(out, !Catch::Contains("frame 2 "));
+  CHECK_THAT(out, Catch::Contains("u       v  inlier oracle  err_est[px] err_truth[px]"));
+  CHECK_THAT(out, Catch::Contains("\ninliers "));
+  CHECK_THAT(out, Catch::Contains(" m, error under the truth median "));
+  CHECK(Run(kTool + " kitti '" + dir.string() + "' --inliers x", &out) == 2);
 }
