@@ -17,8 +17,9 @@
 # acknowledged is in the finalized maps, and every map folder must load and pass
 # check_map_consistency.
 # Save runs: `vilma console` loads a map, changes it (keyframing) and saves it over itself; it
-# is SIGKILLed at a uniformly random time during the command; the folder must then load as the
-# previous generation or the new one, never broken.
+# is SIGKILLed at a uniformly random time over the save (from the end of keyframing, over the
+# save's measured duration + 50 ms); the folder must then load as the previous generation or
+# the new one, never broken.
 #
 # Usage: scripts/crash-campaign.sh [--runs N] [--daemon-runs N] [--save-runs N] [--seed S]
 #   --runs N       stream runs (default 100), alternating mapstored / sender kills
@@ -88,7 +89,7 @@ for run in $(seq 1 "$runs"); do
   "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" --config "$dir/mapstored.yaml" \
     > "$dir/mapstored1.log" 2>&1 &
   store=$!
-  for _ in $(seq 50); do grep -q ready "$dir/mapstored1.log" && break; sleep 0.1; done
+  for _ in $(seq 50); do grep -qs ready "$dir/mapstored1.log" && break; sleep 0.1; done
   kill_at=$(random_ms 50 1400)  # the mission takes about 1.5 s at 40 vertices/s
   if [ $((run % 2)) -eq 1 ]; then
     mapstored_kills=$((mapstored_kills + 1))
@@ -174,7 +175,7 @@ for run in $(seq 1 "$daemon_runs"); do
     daemon=$!
   }
   start_store
-  for _ in $(seq 50); do grep -q ready "$dir/mapstored.log" && break; sleep 0.1; done
+  for _ in $(seq 50); do grep -qs ready "$dir/mapstored.log" && break; sleep 0.1; done
   start_daemon
   sleep 1
   "$bin/vilma-replay" "$data/room" --lcm-url "$url" --quiet > "$dir/replay.log" 2>&1 &
@@ -245,7 +246,7 @@ if [ "$save_runs" -gt 0 ]; then
   url="udpm://239.255.76.67:$(( 61000 + seed % 1000 ))?ttl=0"
   "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" > "$dir/mapstored.log" 2>&1 &
   store=$!
-  for _ in $(seq 50); do grep -q ready "$dir/mapstored.log" && break; sleep 0.1; done
+  for _ in $(seq 50); do grep -qs ready "$dir/mapstored.log" && break; sleep 0.1; done
   "$bin/vilma-mission-sender" --lcm-url "$url" --name source --seed 99 --vertices 400 \
     --keypoints 200 --rate 2000 --end-timeout 60 > "$dir/sender.log" 2>&1
   kill -TERM $store; wait $store || true
@@ -260,15 +261,24 @@ if [ "$save_runs" -gt 0 ]; then
   after=$(check_map "$work/timing-map")
   save_ms=$(awk '/\(save: / { gsub(/[()s:]/, ""); print int($2 * 1000) }' "$work/timing.log")
   save_ms=${save_ms:-$command_ms}
-  kill_from_ms=$(( command_ms > save_ms + 100 ? command_ms - save_ms - 100 : 0 ))
   rm -rf "$work/timing-map"
+  # The kill is timed from the end of kfh (its "(kfh: ..." line, flushed before the save
+  # starts), uniformly over the save's measured duration + 50 ms: the console's start-up and
+  # load take seconds and vary with the machine's load, so a window timed from the command's
+  # start missed the save entirely on a loaded machine (2026-11-27: 100 of 100 kills after it).
+  kill_window_ms=$((save_ms + 50))
   for run in $(seq 1 "$save_runs"); do
     map=$work/save-$run
     rm -rf "$map"
     cp -r "$dir/maps/source" "$map"
     "$bin/vilma" console "$map" -c "$save_commands" > "$work/save-$run.log" 2>&1 &
     console=$!
-    sleep_ms "$(random_ms "$kill_from_ms" "$command_ms")"
+    for _ in $(seq 3000); do
+      grep -qs '(kfh: ' "$work/save-$run.log" && break
+      kill -0 $console 2> /dev/null || break
+      sleep 0.01
+    done
+    sleep_ms "$(random_ms 0 "$kill_window_ms")"
     kill -9 $console 2> /dev/null || true
     wait $console 2> /dev/null || true
     got=$(check_map "$map")
@@ -296,7 +306,7 @@ if [ "$daemon_runs" -gt 0 ]; then
   done
 fi
 if [ "$save_runs" -gt 0 ]; then
-  echo "| kill -9 during \`kfh; save --overwrite\` (kills in the last $((command_ms - kill_from_ms)) ms of $command_ms ms; $before -> $after vertices) | $save_runs | - | $save_unloadable | previous generation $save_old, new generation $save_new, neither $save_lost |"
+  echo "| kill -9 during \`kfh; save --overwrite\` (kills uniform over the $kill_window_ms ms after kfh; save alone $save_ms ms; $before -> $after vertices) | $save_runs | - | $save_unloadable | previous generation $save_old, new generation $save_new, neither $save_lost |"
 fi
 echo "(details: $work/runs.log)"
 [ $((${lost[mapstored]} + ${lost[sender]} + ${unloadable[mapstored]} + ${unloadable[sender]})) -eq 0 ] && \
