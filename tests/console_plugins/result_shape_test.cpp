@@ -50,7 +50,7 @@ TEMPLATE_TEST_CASE("result types: one-line BriefReport and a FullReport of whole
                    mapping::AnchoringSummary, mapping::LoopClosureSummary,
                    mapping::ViOptimizationSummary, mapping::LandmarkSparsificationSummary,
                    mapping::RelaxSummary, mapping::MapFromTargetSummary,
-                   mapping::MapStatistics) {
+                   mapping::MapStatistics, mapping::TargetPnpComparison) {
   STATIC_REQUIRE(HasReports<TestType>::value);
   const TestType result{};
   CHECK(ReportShapeError(result) == "");

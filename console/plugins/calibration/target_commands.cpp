@@ -72,11 +72,7 @@ void Report(CommandContext& c, const TargetReportOptions& o) {
   for (uint32_t cam = 0; cam < m.rig.cameras.size(); ++cam) {
     const mapping::TargetPnpComparison p =
         mapping::CompareWithTargetPnp(map, mission, cam, 1e-3 * o.time_offset_ms, o.min_corners);
-    out << "camera " << cam << " (" << m.rig.cameras[cam].name << "): " << p.frames
-        << " frames against PnP: position RMS " << std::setprecision(2)
-        << 1000.0 * p.position_rms_m << " mm (max " << 1000.0 * p.position_max_m
-        << "), rotation RMS " << std::setprecision(3) << p.rotation_rms_deg << " deg (max "
-        << p.rotation_max_deg << "); PnP RMSE median " << p.pnp_rmse_median_px << " px\n";
+    out << "camera " << cam << " (" << m.rig.cameras[cam].name << "): " << p.FullReport();
   }
   if (!o.reference_rig.empty()) {
     SensorRig reference;

@@ -302,20 +302,29 @@ AravisRunSummary RunAravisDriver(const AravisOptions& options, lcm::LCM* lcm,
   status.SetCounter(kStatusTimestampResets, stamper.clock_sync().stats().resets);
   status_publisher.Stop();
   const status_t last = status.Build(SteadyNs(), 0);
-  double p50_ms = 0.0, p99_ms = 0.0;
   for (int i = 0; i < last.num_metrics; ++i) {
-    if (last.metric_names[i] == kStatusLatencyP50Ms) p50_ms = last.metric_values[i];
-    if (last.metric_names[i] == kStatusLatencyP99Ms) p99_ms = last.metric_values[i];
+    if (last.metric_names[i] == kStatusLatencyP50Ms) summary.latency_p50_ms = last.metric_values[i];
+    if (last.metric_names[i] == kStatusLatencyP99Ms) summary.latency_p99_ms = last.metric_values[i];
   }
-  char latency[96];
-  std::snprintf(latency, sizeof(latency), "latency to publish p50 %.2f ms, p99 %.2f ms", p50_ms,
-                p99_ms);
-  *log << kProgram << ": stopped: " << summary.published << " frames published, "
-       << summary.dropped << " dropped, " << summary.failed_buffers << " incomplete, "
-       << summary.reconnects << " reconnects; " << latency << " (arrival -> LCM publish, last "
-       << "512 frames)" << std::endl;
-  *log << kProgram << ": stream: " << stream_totals.Text() << std::endl;
+  summary.stream = stream_totals.Text();
+  *log << summary.FullReport(kProgram) << std::flush;
   return summary;
+}
+
+std::string AravisRunSummary::BriefReport() const {
+  std::string text = std::to_string(published) + " frames published, " + std::to_string(dropped) +
+                     " dropped, " + std::to_string(failed_buffers) + " incomplete, " +
+                     std::to_string(reconnects) + " reconnects";
+  return error.empty() ? text : text + "; error: " + error;
+}
+
+std::string AravisRunSummary::FullReport(const std::string& program) const {
+  char latency[96];
+  std::snprintf(latency, sizeof(latency), "latency to publish p50 %.2f ms, p99 %.2f ms",
+                latency_p50_ms, latency_p99_ms);
+  return program + ": stopped: " + BriefReport() + "; " + latency +
+         " (arrival -> LCM publish, last 512 frames)\n" + program + ": stream: " +
+         (stream.empty() ? std::string("-") : stream) + "\n";
 }
 
 }  // namespace vilma::aravis

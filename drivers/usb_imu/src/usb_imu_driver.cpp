@@ -19,6 +19,7 @@
 #include "vilma/drivers/usb_imu/imu_stream.h"
 #include "vilma/drivers/usb_imu/mip_device.h"
 #include "vilma/drivers/usb_imu/mip_protocol.h"
+#include "vilma/drivers/usb_imu/usb_imu_run_summary.h"
 
 namespace vilma::usb_imu {
 
@@ -132,7 +133,7 @@ class Driver {
     }
     MaybeUpdateStatus(true);
     sd_notify(0, "STOPPING=1");
-    PrintSummary();
+    std::cout << Summary().FullReport(kProgram);
     return 0;
   }
 
@@ -279,18 +280,24 @@ class Driver {
     }
   }
 
-  void PrintSummary() const {
+  UsbImuRunSummary Summary() const {
     const MipFramerStats& f = framer_.stats();
     const ImuStreamCounters& c = stream_.counters();
     const ClockSyncStats clock = stream_.clock().stats();
-    std::cout << kProgram << ": published " << status_->Counter(kStatusPublished)
-              << " samples, dropped " << c.dropped << ", packets " << f.packets
-              << ", checksum errors " << f.checksum_errors << ", truncated "
-              << f.truncated_packets << ", malformed " << f.malformed_packets
-              << ", garbage bytes " << f.garbage_bytes << ", bad fields "
-              << decode_stats_.bad_field_lengths + decode_stats_.bad_values << ", incomplete "
-              << c.incomplete << ", reconnects " << status_->Counter(kStatusReconnects)
-              << ", clock resets " << clock.resets << ", skew " << clock.skew_ppm << " ppm\n";
+    UsbImuRunSummary s;
+    s.published = status_->Counter(kStatusPublished);
+    s.dropped = c.dropped;
+    s.packets = f.packets;
+    s.checksum_errors = f.checksum_errors;
+    s.truncated_packets = f.truncated_packets;
+    s.malformed_packets = f.malformed_packets;
+    s.garbage_bytes = f.garbage_bytes;
+    s.bad_fields = decode_stats_.bad_field_lengths + decode_stats_.bad_values;
+    s.incomplete = c.incomplete;
+    s.reconnects = status_->Counter(kStatusReconnects);
+    s.clock_resets = clock.resets;
+    s.skew_ppm = clock.skew_ppm;
+    return s;
   }
 
   const UsbImuOptions o_;

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <iomanip>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -300,6 +301,15 @@ mapstore::VIMap BuildMapFromTarget(const std::string& folder, const SensorRig& r
   }
   s.vertices = static_cast<int>(drafts.size());
   return map;
+}
+
+std::string TargetPnpComparison::BriefReport() const {
+  std::ostringstream out;
+  out << std::fixed << frames << " frames against PnP: position RMS " << std::setprecision(2)
+      << 1000.0 * position_rms_m << " mm (max " << 1000.0 * position_max_m
+      << "), rotation RMS " << std::setprecision(3) << rotation_rms_deg << " deg (max "
+      << rotation_max_deg << "); PnP RMSE median " << pnp_rmse_median_px << " px";
+  return out.str();
 }
 
 TargetPnpComparison CompareWithTargetPnp(const mapstore::VIMap& map,

@@ -569,5 +569,20 @@ void MapStoreServer::Shutdown() {
   for (const MissionId& id : open) Finalize(id, false);
 }
 
+std::string MapStoreServerCounters::BriefReport() const {
+  return std::to_string(chunks_received) + " chunks received, " +
+         std::to_string(chunks_journaled) + " journaled, " + std::to_string(chunks_duplicate) +
+         " duplicate, " + std::to_string(chunks_out_of_order) + " out of order, " +
+         std::to_string(fsyncs) + " fsyncs, " + std::to_string(acks_sent) + " acks";
+}
+
+std::string MapStoreServerCounters::FullReport() const {
+  std::string text;
+  VisitCounters([&text](const char* name, uint64_t value) {
+    text += std::string(name) + " " + std::to_string(value) + "\n";
+  });
+  return text;
+}
+
 }  // namespace mapstore
 }  // namespace vilma

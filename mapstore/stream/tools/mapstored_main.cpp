@@ -215,34 +215,18 @@ int main(int argc, char** argv) {
     s.node = "vilma-mapstored";
     s.state = state;
     s.message = message;
-    const std::pair<const char*, uint64_t> counters[] = {
-        {"missions_open", server->missions_open()},
-        {"missions_completed", c.missions_completed},
-        {"missions_incomplete", c.missions_incomplete},
-        {"missions_recovered", c.missions_recovered},
-        {"chunks_received", c.chunks_received},
-        {"chunks_journaled", c.chunks_journaled},
-        {"chunks_duplicate", c.chunks_duplicate},
-        {"keepalives", c.keepalives},
-        {"chunks_out_of_order", c.chunks_out_of_order},
-        {"chunks_malformed", c.chunks_malformed},
-        {"chunks_unknown_mission", c.chunks_unknown_mission},
-        {"bytes_journaled", c.bytes_journaled},
-        {"acks_sent", c.acks_sent},
-        {"fsyncs", c.fsyncs},
-        {"disk_full_errors", c.disk_full_errors},
-        {"io_errors", c.io_errors},
-        {"finalize_errors", c.finalize_errors},
-        {"handler_errors", handler_errors},
-        {"chunks_undecodable", chunks_undecodable},
-        {"post_process_queued", post->counters().queued},
-        {"post_process_running", post->counters().running},
-        {"post_process_succeeded", post->counters().succeeded},
-        {"post_process_failed", post->counters().failed}};
-    for (const auto& kv : counters) {
-      s.counter_names.push_back(kv.first);
-      s.counter_values.push_back(static_cast<int64_t>(kv.second));
-    }
+    auto add = [&s](const char* name, uint64_t value) {
+      s.counter_names.push_back(name);
+      s.counter_values.push_back(static_cast<int64_t>(value));
+    };
+    add("missions_open", server->missions_open());
+    c.VisitCounters(add);
+    add("handler_errors", handler_errors);
+    add("chunks_undecodable", chunks_undecodable);
+    add("post_process_queued", post->counters().queued);
+    add("post_process_running", post->counters().running);
+    add("post_process_succeeded", post->counters().succeeded);
+    add("post_process_failed", post->counters().failed);
     s.num_counters = static_cast<int32_t>(s.counter_names.size());
     s.num_metrics = 0;
     lcm.publish(status_channel, &s);
@@ -304,11 +288,7 @@ int main(int argc, char** argv) {
     Log(std::string("error at shutdown: ") + e.what());
   }
   publish_status(vilma::status_t::STOPPING, "stopped");
-  const auto& c = server->counters();
   Log("stopped: " + std::to_string(server->missions_open()) + " missions left open in journals; " +
-      std::to_string(c.chunks_received) + " chunks received, " + std::to_string(c.chunks_journaled) +
-      " journaled, " + std::to_string(c.chunks_duplicate) + " duplicate, " +
-      std::to_string(c.chunks_out_of_order) + " out of order, " + std::to_string(c.fsyncs) +
-      " fsyncs, " + std::to_string(c.acks_sent) + " acks");
+      server->counters().BriefReport());
   return 0;
 }

@@ -15,12 +15,22 @@ class LCM;
 
 namespace vilma::aravis {
 
+// What a run did, in the one shape of core/report.h.
 struct AravisRunSummary {
   int64_t published = 0;
   int64_t dropped = 0;         // frame id gaps
   int64_t failed_buffers = 0;  // buffers Aravis delivered incomplete (missing packets, timeout)
   int64_t reconnects = 0;
+  double latency_p50_ms = 0.0;  // buffer arrival -> LCM publish, last 512 frames
+  double latency_p99_ms = 0.0;
+  std::string stream;          // the stream's own totals (Aravis's counters), one line
   std::string error;           // why the run failed ("" = clean stop)
+
+  // "N frames published, D dropped, I incomplete, R reconnects" (+ "; error: ...").
+  std::string BriefReport() const;
+  // "<program>: stopped: <brief>; latency to publish p50 .. ms, p99 .. ms (...)\n" and
+  // "<program>: stream: <stream>\n": what the driver prints when it stops.
+  std::string FullReport(const std::string& program = "vilma-aravis") const;
 };
 
 // Opens the camera (options.device / options.fake), streams until `stop` becomes true,

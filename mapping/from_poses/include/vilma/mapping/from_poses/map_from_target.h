@@ -93,6 +93,11 @@ struct TargetPnpComparison {
   double position_rms_m = 0.0, rotation_rms_deg = 0.0;
   double position_max_m = 0.0, rotation_max_deg = 0.0;
   double pnp_rmse_median_px = 0.0;
+
+  // "F frames against PnP: position RMS .. mm (max ..), rotation RMS .. deg (max ..); PnP RMSE
+  // median .. px" (the console's target report prints it per camera).
+  std::string BriefReport() const;
+  std::string FullReport() const { return BriefReport() + "\n"; }
 };
 TargetPnpComparison CompareWithTargetPnp(const mapstore::VIMap& map,
                                          const mapstore::MissionId& mission, uint32_t camera,

@@ -71,6 +71,31 @@ struct MapStoreServerCounters {
   uint64_t missions_incomplete = 0;
   uint64_t missions_recovered = 0;
   uint64_t finalize_errors = 0;
+
+  // Every counter with its name (the names of mapstored's status_t counters), in this order.
+  template <typename Visitor>
+  void VisitCounters(Visitor&& v) const {
+    v("missions_completed", missions_completed);
+    v("missions_incomplete", missions_incomplete);
+    v("missions_recovered", missions_recovered);
+    v("chunks_received", chunks_received);
+    v("chunks_journaled", chunks_journaled);
+    v("chunks_duplicate", chunks_duplicate);
+    v("keepalives", keepalives);
+    v("chunks_out_of_order", chunks_out_of_order);
+    v("chunks_malformed", chunks_malformed);
+    v("chunks_unknown_mission", chunks_unknown_mission);
+    v("bytes_journaled", bytes_journaled);
+    v("acks_sent", acks_sent);
+    v("fsyncs", fsyncs);
+    v("disk_full_errors", disk_full_errors);
+    v("io_errors", io_errors);
+    v("finalize_errors", finalize_errors);
+  }
+  // "N chunks received, J journaled, D duplicate, O out of order, F fsyncs, A acks"
+  std::string BriefReport() const;
+  // One "name value" line per counter.
+  std::string FullReport() const;
 };
 
 class MapStoreServer {
