@@ -21,11 +21,13 @@
 # save's measured duration + 50 ms); the folder must then load as the previous generation or
 # the new one, never broken.
 #
-# Usage: scripts/crash-campaign.sh [--runs N] [--daemon-runs N] [--save-runs N] [--seed S]
+# Usage: scripts/crash-campaign.sh [--runs N] [--daemon-runs N] [--save-runs N] [--save-vertices N] [--seed S]
 #   --runs N       stream runs (default 100), alternating mapstored / sender kills
 #   --daemon-runs N  runs with vilma-estimatord (default 100; about 20 s each), alternating
 #                  mapstored / daemon kills
 #   --save-runs N  save runs (default 100)
+#   --save-vertices N  vertices of the saved map (default 400; a bigger map takes longer to
+#                  save, so that fewer kills land after it on a loaded machine)
 #   --seed S       of the kill times (default 1; the same seed gives the same kill times)
 #   VILMA_BUILD_DIR  build folder (default <repo>/build); work in ~/.cache/vilma/crash-campaign
 set -euo pipefail
@@ -35,19 +37,21 @@ bin=${VILMA_BUILD_DIR:-$repo_dir/build}/bin
 work=${VILMA_CRASH_DIR:-$HOME/.cache/vilma/crash-campaign}
 runs=100
 save_runs=100
+save_vertices=400
 daemon_runs=100
 seed=1
 while [ $# -gt 0 ]; do
   case "$1" in
     --runs) runs=$2; shift 2 ;;
     --save-runs) save_runs=$2; shift 2 ;;
+    --save-vertices) save_vertices=$2; shift 2 ;;
     --daemon-runs) daemon_runs=$2; shift 2 ;;
     --seed) seed=$2; shift 2 ;;
     -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d'  | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "crash-campaign.sh: unknown argument $1 (see --help)" >&2; exit 2 ;;
   esac
 done
-for n in "$runs" "$save_runs" "$daemon_runs" "$seed"; do
+for n in "$runs" "$save_runs" "$daemon_runs" "$seed" "$save_vertices"; do
   [[ "$n" =~ ^[0-9]+$ ]] || { echo "crash-campaign.sh: expected a non-negative integer, got '$n'" >&2; exit 2; }
 done
 for p in vilma-mapstored vilma-mission-sender vilma vilma-estimatord vilma-replay vilma-sim \
@@ -247,7 +251,7 @@ if [ "$save_runs" -gt 0 ]; then
   "$bin/vilma-mapstored" --root "$dir/maps" --lcm-url "$url" > "$dir/mapstored.log" 2>&1 &
   store=$!
   for _ in $(seq 50); do grep -qs ready "$dir/mapstored.log" && break; sleep 0.1; done
-  "$bin/vilma-mission-sender" --lcm-url "$url" --name source --seed 99 --vertices 400 \
+  "$bin/vilma-mission-sender" --lcm-url "$url" --name source --seed 99 --vertices "$save_vertices" \
     --keypoints 200 --rate 2000 --end-timeout 60 > "$dir/sender.log" 2>&1
   kill -TERM $store; wait $store || true
   before=$(check_map "$dir/maps/source")
