@@ -98,6 +98,7 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("stereo", "max_epipolar_px", o.stereo.max_epipolar_px);
   v("stereo", "match_pixel_sigma", o.stereo.match_pixel_sigma);
   v("stereo", "min_inverse_depth_sigma", o.stereo.min_inverse_depth_sigma);
+  v("stereo", "min_uniqueness_ratio", o.stereo.min_uniqueness_ratio);
 }
 
 }  // namespace
@@ -215,6 +216,10 @@ std::string StereoOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(ValidatePositive("max_epipolar_px", max_epipolar_px));
   VILMA_RETURN_IF_ERROR(ValidatePositive("match_pixel_sigma", match_pixel_sigma));
   VILMA_RETURN_IF_ERROR(ValidatePositive("min_inverse_depth_sigma", min_inverse_depth_sigma));
+  if (!(min_uniqueness_ratio == 0.0 ||
+        (std::isfinite(min_uniqueness_ratio) && min_uniqueness_ratio >= 1.0))) {
+    return "min_uniqueness_ratio: expected 0 (off) or a ratio >= 1";
+  }
   return "";
 }
 

@@ -141,6 +141,7 @@ void VioFilter::InitializeDepthFromStereo(int slot) {
   mo.max_epipolar_px = so.max_epipolar_px;
   mo.pixel_sigma = so.match_pixel_sigma;
   mo.min_inverse_depth_sigma = so.min_inverse_depth_sigma;
+  mo.min_uniqueness_ratio = so.min_uniqueness_ratio;
   mo.align_iterations = options_.update.align_iterations;
   mo.photometric = options_.features.photometric;
   FeatureState& f = x_.features[i];

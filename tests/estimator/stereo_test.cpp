@@ -131,6 +131,63 @@ TEST_CASE("a stereo match recovers the inverse distance of a textured plane") {
                   .found);
 }
 
+TEST_CASE("a stereo match with a second, equally good place on the line is ambiguous") {
+  // docs/estimator.md "False stereo matches": repetitive texture gives a second minimum along
+  // the epipolar line that aligns and converges on the line as well as the true one. Here the
+  // second image holds the true neighbourhood of the feature (disparity 10 px, rho 1/3 1/m)
+  // and a copy of it 100 px further along the line (disparity 110 px, rho 3.67 1/m; blocks of
+  // 100 px so that the coarsest patch level sees the same texture at both places). The
+  // feature is at the image centre, where the patch warp into C2 is the same for both depths
+  // (elsewhere the warp predicted at rho 3.67 is scaled by ~8 %, and so would be a true
+  // repetition at that depth; the copy is not).
+  const PlaneScene scene(2, /*start_time=*/10.0);  // static
+  // Image noise as the simulator's (sigma 2 grey levels): the residual of a true match is
+  // then the noise, not 0, as in real images.
+  cv::RNG rng(7);
+  auto noisy = [&](const cv::Mat& image) {
+    cv::Mat noise(image.size(), CV_32F), out;
+    rng.fill(noise, cv::RNG::NORMAL, 0.0, 2.0);
+    cv::Mat value;
+    image.convertTo(value, CV_32F);
+    value += noise;
+    value.convertTo(out, CV_8U);
+    return out;
+  };
+  const cv::Mat left = noisy(scene.Render(0.0, 0));
+  const cv::Mat right = noisy(scene.Render(0.0, 1));
+  cv::Mat right_repeated = right.clone();
+  right(cv::Rect(100, 60, 100, 120)).copyTo(right_repeated(cv::Rect(0, 60, 100, 120)));
+  PatchOptions patch_options;
+  ImagePyramid p1, p2, p2_repeated;
+  p1.Build(left, patch_options.num_levels);
+  p2.Build(right, patch_options.num_levels);
+  p2_repeated.Build(right_repeated, patch_options.num_levels);
+  const Camera& camera = scene.rig().cameras[0].camera;
+  const Transformation T21 =
+      scene.rig().cameras[1].T_I_C.inverse() * scene.rig().cameras[0].T_I_C;
+  const Eigen::Vector2d px(160, 120);
+  MultilevelPatch patch;
+  REQUIRE(patch.Extract(p1, px, Eigen::Matrix2d::Identity(), patch_options));
+  Eigen::Vector3d mu;
+  Eigen::Matrix<double, 3, 2> J_mu_px;
+  REQUIRE(camera.Unproject(px, &mu, &J_mu_px));
+  const Eigen::Matrix2d D = BearingBasis(mu).transpose() * J_mu_px;
+  const double rho_true = mu.z() / PlaneScene::kPlaneZ;
+  StereoMatchOptions options;  // uniqueness off (the default)
+  const StereoMatch plain = MatchInOtherCamera(patch, D, p2_repeated, camera, T21, mu, options);
+  INFO("without the test: found " << plain.found << " rho " << plain.rho << " (true "
+                                  << rho_true << ")");
+  CHECK(plain.found);  // either place is accepted
+  options.min_uniqueness_ratio = 1.3;
+  const StereoMatch unique = MatchInOtherCamera(patch, D, p2_repeated, camera, T21, mu, options);
+  CHECK_FALSE(unique.found);
+  CHECK(unique.failure == StereoMatchFailure::kAmbiguous);
+  // Without the copy the same feature is unique and matched at its true depth.
+  const StereoMatch single = MatchInOtherCamera(patch, D, p2, camera, T21, mu, options);
+  REQUIRE(single.found);
+  CHECK(std::abs(single.rho - rho_true) < 0.02);
+}
+
 // Runs the filter over the scene (stereo or mono) and returns the final position error [m].
 double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, double seconds,
                       VioFilter** out_filter, VioFilter* filter) {

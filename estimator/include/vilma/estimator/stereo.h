@@ -54,6 +54,10 @@ struct StereoMatchOptions {
   double min_inverse_depth_sigma = 0.02;  // [1/m]
   int align_iterations = 10;
   int max_candidates = 3;  // local minima of the coarse search tried, lowest residual first
+  // Uniqueness: every other local minimum of the coarse search (more than 4 px along the curve
+  // from the accepted one) must have a coarse mean |residual| at least this many times the
+  // accepted one's; 0 turns the test off. Why: docs/estimator.md "False stereo matches".
+  double min_uniqueness_ratio = 0.0;
   PhotometricOptions photometric;
 };
 
@@ -66,8 +70,9 @@ enum class StereoMatchFailure {
   kResidual,         // converged, mean |residual| above max_match_error
   kNoDepth,          // no rho >= 0 on the curve near the aligned pixel (or no baseline)
   kEpipolar,         // the aligned pixel is more than max_epipolar_px off the curve
+  kAmbiguous,        // another local minimum of the curve is nearly as good (min_uniqueness_ratio)
 };
-constexpr int kNumStereoMatchFailures = 6;
+constexpr int kNumStereoMatchFailures = 7;
 
 struct StereoMatch {
   bool found = false;
@@ -85,7 +90,9 @@ struct StereoMatch {
 // (AlignPatch) until one is accepted, and rho is the least-squares point of the curve
 // nearest to the aligned pixel (Gauss-Newton in rho). Accepted when the alignment converged
 // with a mean |residual| <= max_match_error and the pixel is within max_epipolar_px of the
-// curve. rho_sigma = pixel_sigma / |d pixel / d rho| (at least min_inverse_depth_sigma).
+// curve, and (min_uniqueness_ratio > 0) no other local minimum of the coarse search comes
+// within that ratio of the accepted sample's residual. rho_sigma = pixel_sigma /
+// |d pixel / d rho| (at least min_inverse_depth_sigma).
 StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
                                const ImagePyramid& pyramid2, const Camera& camera2,
                                const Transformation& T_C2_C1, const Eigen::Vector3d& mu_C1,
