@@ -152,7 +152,7 @@ int main(int argc, char** argv) {
       break;
     }
   }
-  std::cout << monitor.FinalTable();
+  std::cout << monitor.FullReport();
   if (options.expect_count >= 0) {
     const long long missing = options.expect_count - monitor.total_messages();
     std::cout << "EXPECTED " << options.expect_count << " missing=" << (missing > 0 ? missing : 0)

@@ -39,8 +39,9 @@ TEST_CASE("Rate monitor counts messages, bytes and seq gaps", "[lcm]") {
   CHECK(monitor.total_messages() == 10);
   CHECK(monitor.total_lost() == 2);
 
-  const std::string table = monitor.FinalTable();
+  const std::string table = monitor.FullReport();
   CHECK(table.find("TOTAL messages=10 bytes=582 lost=2 out_of_order=2") != std::string::npos);
+  CHECK(monitor.BriefReport() == "2 channels, 10 messages, 0.00 MB, 2 lost, 2 out of order");
   const std::string periodic = monitor.PeriodicReport(1.0);
   CHECK(periodic.find("IMU") != std::string::npos);
   CHECK(monitor.channels().at("IMU").window_messages == 0);

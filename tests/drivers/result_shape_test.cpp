@@ -4,13 +4,15 @@
 #include <catch2/catch.hpp>
 
 #include "vilma/core/report.h"
+#include "vilma/drivers/lcm_rates.h"
 #include "vilma/drivers/log_json.h"
 #include "vilma/drivers/pose_log.h"
 #include "vilma/drivers/replay.h"
 
 TEMPLATE_TEST_CASE("result types of drivers: one-line BriefReport and a FullReport of whole lines",
                    "[report]", vilma::ReplaySummary, vilma::PoseLogStats,
-                   vilma::LocalizationLogStats, vilma::LogJsonStats) {
+                   vilma::LocalizationLogStats, vilma::LogJsonStats,
+                   vilma::LcmRateMonitor) {
   STATIC_REQUIRE(vilma::HasReports<TestType>::value);
   const TestType result{};
   CHECK(vilma::ReportShapeError(result) == "");

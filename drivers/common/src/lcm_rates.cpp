@@ -63,7 +63,17 @@ std::string LcmRateMonitor::PeriodicReport(double window_s) {
   return out.str();
 }
 
-std::string LcmRateMonitor::FinalTable() const {
+std::string LcmRateMonitor::BriefReport() const {
+  int64_t out_of_order = 0;
+  for (const auto& entry : channels_) out_of_order += entry.second.out_of_order;
+  char line[160];
+  std::snprintf(line, sizeof(line), "%zu channels, %lld messages, %.2f MB, %lld lost, %lld out of order",
+                channels_.size(), static_cast<long long>(total_messages()), total_bytes() * 1e-6,
+                static_cast<long long>(total_lost()), static_cast<long long>(out_of_order));
+  return line;
+}
+
+std::string LcmRateMonitor::FullReport() const {
   std::ostringstream out;
   char line[256];
   std::snprintf(line, sizeof(line), "%-20s %10s %10s %10s %10s %8s %8s\n", "channel", "messages",

@@ -29,9 +29,12 @@ class LcmRateMonitor {
   // One line per channel with the rate since the previous call (messages/s, MB/s), then
   // resets the window. `window_s` is the window length [s].
   std::string PeriodicReport(double window_s);
+  // The monitor is vilma-lcm-rates' result (core/report.h's shape; ChannelStats is its state):
+  // "C channels, N messages, B MB, L lost, O out of order".
+  std::string BriefReport() const;
   // The final table: channel, messages, MB, msg/s, MB/s, lost, out of order; then a TOTAL
   // line "TOTAL messages=N bytes=B lost=L out_of_order=O duration_s=D" for scripts.
-  std::string FinalTable() const;
+  std::string FullReport() const;
 
   int64_t total_messages() const;
   int64_t total_bytes() const;
