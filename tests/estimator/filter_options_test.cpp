@@ -78,12 +78,12 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
   CHECK_THROWS_WITH(ParseFilterOptions(replace("detect_below: 20", "detect_below: 30"), "f.yaml"),
                     "f.yaml: features.detect_below: expected <= max_features");
   CHECK_THROWS_WITH(
-      ParseFilterOptions(replace("min_uniqueness_ratio: 1.3", "min_uniqueness_ratio: 0.5"),
+      ParseFilterOptions(replace("min_uniqueness_ratio: 0.0", "min_uniqueness_ratio: 0.5"),
                          "f.yaml"),
       "f.yaml: stereo.min_uniqueness_ratio: expected 0 (off) or a ratio >= 1");
-  CHECK(ParseFilterOptions(replace("min_uniqueness_ratio: 1.3", "min_uniqueness_ratio: 0.0"),
+  CHECK(ParseFilterOptions(replace("min_uniqueness_ratio: 0.0", "min_uniqueness_ratio: 1.3"),
                            "f.yaml")
-            .stereo.min_uniqueness_ratio == 0.0);  // 0 turns the test off
+            .stereo.min_uniqueness_ratio == 1.3);
   CHECK_THROWS_WITH(ParseFilterOptions("[1, 2]", "f.yaml"), Catch::Contains("f.yaml"));
   CHECK_THROWS_WITH(LoadFilterOptions("/nonexistent/estimator.yaml"),
                     Catch::Contains("/nonexistent/estimator.yaml"));

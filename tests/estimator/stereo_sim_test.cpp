@@ -31,7 +31,7 @@ TEST_CASE("stereo: most new features of a simulated room are matched in camera 2
   FilterOptions options;
   options.stereo.enabled = true;
   // The candidate search alone (its recall): the uniqueness test that rejects ambiguous
-  // matches for precision is off here (docs/estimator.md "False stereo matches").
+  // matches for precision (off by default) is off here whatever the default.
   options.stereo.min_uniqueness_ratio = 0.0;
   VioFilter filter(rig, 0, options);
   const auto& frames0 = dataset.cameras()[0].frames;
