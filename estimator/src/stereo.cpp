@@ -149,8 +149,9 @@ StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix
     StereoMatch m = RefineCandidate(patch, D, pyramid2, camera2, T_C2_C1, mu_C1, options,
                                     sample_rho);
     if (m.found && options.min_uniqueness_ratio > 0.0) {
-      // 4. Uniqueness (docs/estimator.md "False stereo matches"): on repetitive texture a
-      //    false minimum can align and converge on the curve as well as the true one; its
+      // 4. Uniqueness (docs/estimator.md "False stereo matches and the filter's
+      //    consistency"): on repetitive texture a false minimum can align and converge on
+      //    the curve as well as the true one; its
       //    rho is then wrong by up to the whole search range while its sigma says 2 %. Every
       //    other minimum of the coarse search is aligned as well (the coarse residuals alone
       //    depend on where the 2 px samples fall on a sharp minimum: 2.2 vs 3.4 grey levels

@@ -54,9 +54,11 @@ struct StereoMatchOptions {
   double min_inverse_depth_sigma = 0.02;  // [1/m]
   int align_iterations = 10;
   int max_candidates = 3;  // local minima of the coarse search tried, lowest residual first
-  // Uniqueness: every other local minimum of the coarse search (more than 4 px along the curve
-  // from the accepted one) must have a coarse mean |residual| at least this many times the
-  // accepted one's; 0 turns the test off. Why: docs/estimator.md "False stereo matches".
+  // Uniqueness: the other local minima of the coarse search (more than 4 px along the curve
+  // from the accepted one, coarse residual below 2x this ratio x its) are aligned too; if one
+  // is accepted with a mean |residual| below this ratio x the match's, the match is dropped
+  // (kAmbiguous). 0 turns the test off. Why: docs/estimator.md "False stereo matches and the
+  // filter's consistency".
   double min_uniqueness_ratio = 0.0;
   PhotometricOptions photometric;
 };
@@ -90,8 +92,8 @@ struct StereoMatch {
 // (AlignPatch) until one is accepted, and rho is the least-squares point of the curve
 // nearest to the aligned pixel (Gauss-Newton in rho). Accepted when the alignment converged
 // with a mean |residual| <= max_match_error and the pixel is within max_epipolar_px of the
-// curve, and (min_uniqueness_ratio > 0) no other local minimum of the coarse search comes
-// within that ratio of the accepted sample's residual. rho_sigma = pixel_sigma /
+// curve, and (min_uniqueness_ratio > 0) no other place on the curve aligns with a mean
+// |residual| within that ratio of the match's. rho_sigma = pixel_sigma /
 // |d pixel / d rho| (at least min_inverse_depth_sigma).
 StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
                                const ImagePyramid& pyramid2, const Camera& camera2,
