@@ -7,20 +7,16 @@
 #include <cmath>
 #include <random>
 
+#include "test_cameras.h"
+
 using namespace vilma;
 using namespace vilma::localizer;
 
 namespace {
 
-Camera EurocCamera() {
-  Eigen::VectorXd dist(4);
-  dist << -0.28340811, 0.07395907, 0.00019359, 1.76187114e-05;
-  return Camera(752, 480, Eigen::Vector4d(458.654, 457.296, 367.215, 248.375),
-                DistortionModel::kRadTan, dist);
-}
+using test::EurocCamera;
+using test::kT_G_C;
 
-const Transformation kT_G_C(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
-                            Eigen::Vector3d(0.5, -1.0, 2.0));
 
 struct Scene {
   std::vector<Eigen::Vector2d> uv;

@@ -6,20 +6,16 @@
 #include <cmath>
 #include <random>
 
+#include "test_cameras.h"
+
 using namespace vilma;
 using namespace vilma::localizer;
 
 namespace {
 
-Camera EurocCamera() {
-  Eigen::VectorXd dist(4);
-  dist << -0.28340811, 0.07395907, 0.00019359, 1.76187114e-05;
-  return Camera(752, 480, Eigen::Vector4d(458.654, 457.296, 367.215, 248.375),
-                DistortionModel::kRadTan, dist);
-}
+using test::EurocCamera;
+using test::kT_G_C;
 
-const Transformation kT_G_C(Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
-                            Eigen::Vector3d(0.5, -1.0, 2.0));
 
 // The shape of euroc corner frame 71 (docs/localizer.md, "Displaced rival"): exact matches in
 // the top-left corner (40 % x 50 % of the image), `band` of them 5.3-5.7 m from the camera

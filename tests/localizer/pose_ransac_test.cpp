@@ -5,17 +5,14 @@
 #include <cmath>
 #include <random>
 
+#include "test_cameras.h"
+
 using namespace vilma;
 using namespace vilma::localizer;
 
 namespace {
 
-Camera EurocCamera() {
-  Eigen::VectorXd dist(4);
-  dist << -0.28340811, 0.07395907, 0.00019359, 1.76187114e-05;
-  return Camera(752, 480, Eigen::Vector4d(458.654, 457.296, 367.215, 248.375),
-                DistortionModel::kRadTan, dist);
-}
+using test::EurocCamera;
 
 // n points in front of the camera at T_G_C, keypoints with Gaussian pixel noise; the first
 // round(outlier_ratio * n) matches get a random wrong 3D point.
