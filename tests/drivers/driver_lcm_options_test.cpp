@@ -7,6 +7,7 @@
 
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
+#include "vilma/core/options_fields.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/drivers/driver_lcm_options.h"
 
@@ -21,9 +22,8 @@ DriverLcmOptions Camera() {
 
 // Reads `yaml` over `base` the way the drivers do: the shared keys, then the unknown-key check.
 DriverLcmOptions Read(const std::string& yaml, DriverLcmOptions base) {
-  const YamlNode root = YamlNode::LoadString(yaml, "test.yaml");
-  ReadDriverLcmOptions(root, &base);
-  root.CheckNoUnknownKeys();
+  ReadOptionFields(YamlNode::LoadString(yaml, "test.yaml"), MissingKey::kKeepDefault, &base,
+                   [](auto& o, auto&& v) { VisitDriverLcmFields(o, v); });
   return base;
 }
 

@@ -166,6 +166,7 @@ AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
   // Flags become a YAML map read by the same reader as the file, over the file's values: one
   // set of types, defaults and checks for both.
   YAML::Node overrides(YAML::NodeType::Map);
+  const std::vector<KeyInfo> keys = TopLevelKeys();
   for (ArgCursor arg(args); arg.Next();) {
     const std::string& name = arg.name();
     if (name == "--help" || name == "-h") {
@@ -180,7 +181,7 @@ AravisCommandLine ParseAravisCommandLine(const std::vector<std::string>& args) {
       if (config_path.empty()) throw UsageError("--config: expected a file");
     } else {
       bool known = false;
-      for (const KeyInfo& info : TopLevelKeys()) {
+      for (const KeyInfo& info : keys) {
         const std::string flag = FlagOf(info.key);
         if (name == flag) {
           overrides[info.key] = info.is_bool ? (arg.Flag() ? "true" : "false") : arg.Value();

@@ -34,12 +34,6 @@ std::string DriverLcmOptions::ValidateLcm() const {
   return "";
 }
 
-void ReadDriverLcmOptions(const YamlNode& node, DriverLcmOptions* o) {
-  VisitDriverLcmFields(*o, [&node](const char*, const char* key, auto& field) {
-    ReadOptionField(node, key, MissingKey::kKeepDefault, &field);
-  });
-}
-
 std::string DriverLcmOptionsYaml(const DriverLcmOptions& o) {
   return OptionFieldsToYaml(o, [](auto& options, auto&& v) { VisitDriverLcmFields(options, v); });
 }

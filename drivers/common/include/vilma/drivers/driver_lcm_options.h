@@ -46,12 +46,8 @@ void VisitDriverLcmFields(Options& o, Visitor&& v) {
   v("", "seconds", o.seconds);
 }
 
-// Reads the keys above that `node` has (absent ones keep their values). Marks them as known
-// for the caller's CheckNoUnknownKeys(); throws InputError for a wrong type.
-void ReadDriverLcmOptions(const YamlNode& node, DriverLcmOptions* options);
-
 // The keys above as block YAML lines ("key: value\n"), strings quoted, readable back by
-// ReadDriverLcmOptions (OptionFieldsToYaml of the field list).
+// ReadOptionFields with the field list (OptionFieldsToYaml of the field list).
 std::string DriverLcmOptionsYaml(const DriverLcmOptions& options);
 
 // If the cursor's option is one of the flags above, consumes its value into *options and
