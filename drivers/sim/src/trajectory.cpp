@@ -205,8 +205,10 @@ Trajectory GenerateOnce(const World& world, const TrajectoryOptions& options, ui
     yaw = heading + (direction < 0 ? M_PI : 0.0);
   } else {
     for (int k = 0; k < 1000; ++k) {
-      p = m.free_space.min() + (m.free_space.max() - m.free_space.min())
-                                   .cwiseProduct(Vector3d(rng.Uniform(), rng.Uniform(), rng.Uniform()));
+      // Drawn z, y, x ("Draw order" in random.h).
+      const double uz = rng.Uniform(), uy = rng.Uniform(), ux = rng.Uniform();
+      p = m.free_space.min() +
+          (m.free_space.max() - m.free_space.min()).cwiseProduct(Vector3d(ux, uy, uz));
       if (world.IsFree(p, m.clearance * 1.5)) break;
     }
     yaw = rng.Uniform(-M_PI, M_PI);
@@ -324,6 +326,15 @@ Vector3d Lerp(const std::vector<Vector3d>& points, double u) {
   return result;
 }
 
+// One draw of a revisit's position offset: horizontal sigma on x and y, height sigma on z,
+// drawn z, y, x ("Draw order" in random.h).
+Vector3d DrawRevisitOffset(const RevisitOptions& revisit, Rng* rng) {
+  const double z = rng->Normal(0.0, revisit.height_offset_m);
+  const double y = rng->Normal(0.0, revisit.position_offset_m);
+  const double x = rng->Normal(0.0, revisit.position_offset_m);
+  return Vector3d(x, y, z);
+}
+
 Trajectory RevisitOnce(const World& world, const Trajectory& reference,
                        const TrajectoryOptions& options, const RevisitOptions& revisit,
                        uint64_t seed) {
@@ -354,9 +365,7 @@ Trajectory RevisitOnce(const World& world, const Trajectory& reference,
   const double innovation = std::sqrt(std::max(0.0, 1.0 - a * a));
   double u = rng.Uniform(lo, hi);
   double direction = rng.Uniform() < 0.5 ? 1.0 : -1.0;
-  Vector3d offset(rng.Normal(0.0, revisit.position_offset_m),
-                  rng.Normal(0.0, revisit.position_offset_m),
-                  rng.Normal(0.0, revisit.height_offset_m));
+  Vector3d offset = DrawRevisitOffset(revisit, &rng);
   double yaw_offset = rng.Normal(0.0, revisit.yaw_offset_rad);
   std::vector<Vector3d> pos(n), ang(n);
   // Reference point plus offset, shrinking the offset until the point keeps clear.
@@ -389,9 +398,7 @@ Trajectory RevisitOnce(const World& world, const Trajectory& reference,
       u = 2.0 * lo - u;
       direction = 1.0;
     }
-    offset = a * offset + innovation * Vector3d(rng.Normal(0.0, revisit.position_offset_m),
-                                                rng.Normal(0.0, revisit.position_offset_m),
-                                                rng.Normal(0.0, revisit.height_offset_m));
+    offset = a * offset + innovation * DrawRevisitOffset(revisit, &rng);
     yaw_offset = a * yaw_offset + innovation * rng.Normal(0.0, revisit.yaw_offset_rad);
     p = place(u);
     yaw = Lerp(ref_ang, u).x() + yaw_offset;  // the static start has the full offset too

@@ -150,7 +150,10 @@ World MakeRoom(uint64_t seed, bool fast) {
   w.AddRoomShell(Vector3d(-4, -4, 0), Vector3d(4, 4, 3), texel, rng.Next());
   // Clutter: boxes along the walls (like the mattresses, crates and tables of the Vicon room).
   for (int i = 0; i < 9; ++i) {
-    const Vector3d size(rng.Uniform(0.3, 1.3), rng.Uniform(0.3, 1.3), rng.Uniform(0.3, 1.6));
+    // Draws z, y, x; then the texture seed before the yaw ("Draw order" in random.h).
+    const double size_z = rng.Uniform(0.3, 1.6), size_y = rng.Uniform(0.3, 1.3),
+                 size_x = rng.Uniform(0.3, 1.3);
+    const Vector3d size(size_x, size_y, size_z);
     const int wall = i % 4;
     const double along = rng.Uniform(-3.2, 3.2);
     const double off = 4.0 - rng.Uniform(0.1, 0.8) - 0.5 * std::max(size.x(), size.y());
@@ -160,7 +163,9 @@ World MakeRoom(uint64_t seed, bool fast) {
     if (wall == 2) c = Vector3d(along, off, 0);
     if (wall == 3) c = Vector3d(along, -off, 0);
     c.z() = 0.5 * size.z();
-    w.AddBox(c, size, rng.Uniform(-0.3, 0.3), texel, rng.Next());
+    const uint64_t texture_seed = rng.Next();
+    const double yaw = rng.Uniform(-0.3, 0.3);
+    w.AddBox(c, size, yaw, texel, texture_seed);
   }
   // Two free-standing obstacles (a stack of crates, a pole-like column) away from the centre.
   w.AddBox(Vector3d(1.6, -1.4, 0.6), Vector3d(0.6, 0.6, 1.2), 0.2, texel, rng.Next());
@@ -169,12 +174,15 @@ World MakeRoom(uint64_t seed, bool fast) {
   for (int i = 0; i < 6; ++i) {
     const double along = rng.Uniform(-3.0, 2.0), z = rng.Uniform(0.8, 1.8);
     const double pw = rng.Uniform(0.5, 1.2), ph = rng.Uniform(0.4, 1.0);
+    // The albedo before the texture seed ("Draw order" in random.h).
+    const double albedo = rng.Uniform(60, 200);
+    const uint64_t texture_seed = rng.Next();
     if (i % 2 == 0) {
       w.AddQuad(Vector3d(-3.98, along, z), Vector3d(0, pw, 0), Vector3d(0, 0, ph), texel,
-                rng.Next(), rng.Uniform(60, 200), 1.3);
+                texture_seed, albedo, 1.3);
     } else {
       w.AddQuad(Vector3d(along, 3.98, z), Vector3d(pw, 0, 0), Vector3d(0, 0, ph), texel,
-                rng.Next(), rng.Uniform(60, 200), 1.3);
+                texture_seed, albedo, 1.3);
     }
   }
   w.background_intensity = 0.0;
@@ -210,13 +218,22 @@ World MakeHall(uint64_t seed) {
   }
   // Machines and crates: along the walls and between the pillar rows' outer sides.
   for (int i = 0; i < 18; ++i) {
-    const Vector3d size(rng.Uniform(0.8, 3.5), rng.Uniform(0.8, 3.0), rng.Uniform(0.5, 4.5));
-    Vector3d c;
+    // Each vector drawn z, y, x ("Draw order" in random.h).
+    const double size_z = rng.Uniform(0.5, 4.5), size_y = rng.Uniform(0.8, 3.0),
+                 size_x = rng.Uniform(0.8, 3.5);
+    const Vector3d size(size_x, size_y, size_z);
+    Vector3d c = Vector3d::Zero();
     const int zone = i % 3;
-    if (zone == 0) c = Vector3d(rng.Uniform(-13, 13), rng.Uniform(7.0, 8.5), 0);
-    if (zone == 1) c = Vector3d(rng.Uniform(-13, 13), rng.Uniform(-8.5, -7.0), 0);
-    if (zone == 2) c = Vector3d(rng.Uniform() < 0.5 ? rng.Uniform(-13.5, -12) : rng.Uniform(12, 13.5),
-                                rng.Uniform(-4, 4), 0);
+    if (zone == 0) {
+      c.y() = rng.Uniform(7.0, 8.5);
+      c.x() = rng.Uniform(-13, 13);
+    } else if (zone == 1) {
+      c.y() = rng.Uniform(-8.5, -7.0);
+      c.x() = rng.Uniform(-13, 13);
+    } else {
+      c.y() = rng.Uniform(-4, 4);
+      c.x() = rng.Uniform() < 0.5 ? rng.Uniform(-13.5, -12) : rng.Uniform(12, 13.5);
+    }
     c.z() = 0.5 * size.z();
     w.AddBox(c, size, 0.0, texel, rng.Next());
   }

@@ -117,7 +117,12 @@ Transformation PerturbationForVertex(uint64_t seed, std::size_t index, double tr
   auto random_unit = [&] {
     Eigen::Vector3d v;
     do {
-      v = Eigen::Vector3d(normal(rng), normal(rng), normal(rng));
+      // Drawn z, y, x: one statement per draw, because C++ leaves the order of a call's
+      // arguments unspecified (clang and GCC differed); GCC's former order is kept so the
+      // perturbations (and the figures measured with them) stay the same.
+      v.z() = normal(rng);
+      v.y() = normal(rng);
+      v.x() = normal(rng);
     } while (v.norm() < 1e-9);
     return v.normalized();
   };

@@ -5,6 +5,20 @@
 
 namespace vilma {
 namespace mapstore {
+namespace {
+
+// Three draws as a vector, z first. One statement per draw: C++ leaves the order of a call's
+// arguments unspecified, and `Vector3d(n(rng), n(rng), n(rng))` made other missions under clang
+// than under GCC; GCC's former order (last argument first) is kept, so the missions stay the same.
+Eigen::Vector3d DrawVector3(std::normal_distribution<double>& normal, std::mt19937_64& rng) {
+  Eigen::Vector3d v;
+  v.z() = normal(rng);
+  v.y() = normal(rng);
+  v.x() = normal(rng);
+  return v;
+}
+
+}  // namespace
 
 std::string SyntheticMissionOptions::Validate() const {
   if (vertices < 0) return "vertices: expected >= 0";
@@ -49,11 +63,13 @@ std::vector<MissionDelta> MakeSyntheticMissionDeltas(const SyntheticMissionOptio
     v.id = ids.Next();
     v.mission_id = mission.id;
     v.t_ns = t_ns;
-    v.T_M_I = Transformation(Eigen::Quaterniond(1.0, 0.01 * n(rng), 0.01 * n(rng), 0.01 * n(rng)),
-                             Eigen::Vector3d(0.1 * i, n(rng), n(rng)));
-    v.v_M = Eigen::Vector3d(n(rng), n(rng), n(rng));
-    v.accel_bias = 0.01 * Eigen::Vector3d(n(rng), n(rng), n(rng));
-    v.gyro_bias = 0.001 * Eigen::Vector3d(n(rng), n(rng), n(rng));
+    const double p_z = n(rng), p_y = n(rng);
+    const Eigen::Vector3d q_xyz = DrawVector3(n, rng);
+    v.T_M_I = Transformation(Eigen::Quaterniond(1.0, 0.01 * q_xyz.x(), 0.01 * q_xyz.y(), 0.01 * q_xyz.z()),
+                             Eigen::Vector3d(0.1 * i, p_y, p_z));
+    v.v_M = DrawVector3(n, rng);
+    v.accel_bias = 0.01 * DrawVector3(n, rng);
+    v.gyro_bias = 0.001 * DrawVector3(n, rng);
     VisualFrame frame;
     frame.keypoints.resize(o.keypoints_per_frame);
     frame.descriptors.resize(static_cast<std::size_t>(o.keypoints_per_frame) * frame.descriptor_size_bytes);
@@ -61,7 +77,8 @@ std::vector<MissionDelta> MakeSyntheticMissionDeltas(const SyntheticMissionOptio
     frame.landmark_ids.resize(o.keypoints_per_frame);
     for (int k = 0; k < o.keypoints_per_frame; ++k) {
       Keypoint& kp = frame.keypoints[k];
-      kp.uv = Eigen::Vector2d(376.0 + 100.0 * n(rng), 240.0 + 80.0 * n(rng));
+      const double v_px = 240.0 + 80.0 * n(rng);
+      kp.uv = Eigen::Vector2d(376.0 + 100.0 * n(rng), v_px);
       kp.scale = 8.0 + n(rng);
       kp.orientation = n(rng);
       kp.score = 50.0 + n(rng);
@@ -72,7 +89,7 @@ std::vector<MissionDelta> MakeSyntheticMissionDeltas(const SyntheticMissionOptio
       Landmark lm;
       lm.id = ids.Next();
       lm.store_vertex_id = v.id;
-      lm.p_I = Eigen::Vector3d(n(rng), n(rng), 3.0 + n(rng));
+      lm.p_I = DrawVector3(n, rng) + Eigen::Vector3d(0.0, 0.0, 3.0);
       lm.covariance = 0.01 * Eigen::Matrix3d::Identity();
       lm.quality = LandmarkQuality::kGood;
       lm.observations.push_back({v.id, 0u, static_cast<uint32_t>(l)});
@@ -93,8 +110,8 @@ std::vector<MissionDelta> MakeSyntheticMissionDeltas(const SyntheticMissionOptio
         if (o.imu_samples_per_edge == 0) break;
         ImuSample sample;
         sample.t_ns = t_ns - kVertexPeriodNs + s * (kVertexPeriodNs / o.imu_samples_per_edge);
-        sample.omega_I = 0.1 * Eigen::Vector3d(n(rng), n(rng), n(rng));
-        sample.a_I = Eigen::Vector3d(n(rng), n(rng), 9.81 + n(rng));
+        sample.omega_I = 0.1 * DrawVector3(n, rng);
+        sample.a_I = DrawVector3(n, rng) + Eigen::Vector3d(0.0, 0.0, 9.81);
         e.imu_samples.push_back(sample);
       }
       delta.edges.push_back(std::move(e));
