@@ -21,7 +21,7 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
-// Generated files live outside the repository (preamble: /work/cache); per-process folder so
+// Generated files live outside the repository ($VILMA_TEST_TMPDIR or /tmp); per-process folder so
 // that parallel ctest runs do not collide.
 std::string TestDir() {
   const char* base = std::getenv("VILMA_TEST_TMPDIR");

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <catch2/catch.hpp>
+#include <cstdlib>
 #include <filesystem>
 #include <random>
 #include <string>
@@ -19,6 +20,16 @@ inline std::string SharedDataDir() {
 inline std::string EurocMicroDir() {
   const std::string shared = SharedDataDir();
   return shared.empty() ? shared : shared + "/euroc_V1_01_micro";
+}
+
+// Where scripts/make-datasets.sh writes the simulated benchmark sets: $VILMA_CACHE/datasets, else
+// $HOME/.cache/vilma/datasets (the same rule as the script). Tests that use them skip when absent.
+inline std::string SimulatedDatasetsDir() {
+  if (const char* cache = std::getenv("VILMA_CACHE"); cache != nullptr && *cache != '\0') {
+    return std::string(cache) + "/datasets";
+  }
+  const char* home = std::getenv("HOME");
+  return std::string(home != nullptr ? home : "") + "/.cache/vilma/datasets";
 }
 
 // A fresh, empty temporary folder removed when the object goes out of scope.

@@ -13,6 +13,7 @@
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/geometry.h"
 #include "vilma/core/rig.h"
+#include "core/test_data.h"
 #include "test_skip.h"
 
 namespace vilma::localizer {
@@ -154,7 +155,7 @@ struct Pose {
 
 TEST_CASE("FeatureTracker on the simulated room: tracks agree with the ground-truth poses",
           "[features]") {
-  const std::string root = "/work/cache/datasets/room-easy";
+  const std::string root = vilma::testing::SimulatedDatasetsDir() + "/room-easy";
   AslDataset dataset;
   SensorRig rig;
   try {
@@ -509,7 +510,7 @@ TEST_CASE("FeatureTracker timing per keyframe", "[.][features][benchmark]") {
     CHECK(Median(total) <= 30.0);
   };
   // Simulated room (moving camera), 10 Hz keyframes.
-  const std::string room = "/work/cache/datasets/room-easy";
+  const std::string room = vilma::testing::SimulatedDatasetsDir() + "/room-easy";
   try {
     const AslDataset dataset = AslDataset::Open(room);
     const SensorRig rig = LoadSensorRig(room + "/rig.yaml");

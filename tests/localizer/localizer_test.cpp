@@ -17,6 +17,7 @@
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/mapping/locmap/localization_map_builder.h"
 #include "vilma/mapping/map_builder.h"
+#include "core/test_data.h"
 #include "test_skip.h"
 
 using namespace vilma;
@@ -180,7 +181,7 @@ TEST_CASE("covisibility: the largest component through shared observers is kept"
 
 TEST_CASE("localizer: end to end on simulated room sessions (map from room-easy, query room-s2)",
           "[localization][benchmark]") {
-  const fs::path datasets = "/work/cache/datasets";
+  const fs::path datasets = vilma::testing::SimulatedDatasetsDir();
   const fs::path map_set = datasets / "room-easy";
   const fs::path query_set = datasets / "room-s2";
   if (!fs::exists(map_set / "rig.yaml") || !fs::exists(query_set / "rig.yaml")) {

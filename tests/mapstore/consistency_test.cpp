@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "core/test_data.h"
 #include "mapstore/synthetic_map.h"
 #include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/map_io.h"
@@ -150,7 +151,8 @@ TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
     RequireOnly(map, K::kMissingResource, "depth resource");
   }
   SECTION("resource file deleted from a saved map") {
-    const std::string dir = "/work/cache/mapstore_tests/consistency_resource";
+    const vilma::testing::TempDir scratch;
+    const std::string dir = scratch.File("consistency_resource");
     std::filesystem::remove_all(dir);
     SaveMap(map, dir);
     VIMap loaded = LoadMap(dir);

@@ -6,6 +6,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "core/test_data.h"
 #include "mapstore/synthetic_map.h"
 #include "vilma/core/error.h"
 #include "vilma/mapstore/checksum.h"
@@ -19,10 +20,14 @@ using namespace vilma::mapstore::testing;
 
 namespace {
 
-const std::string kRoot = "/work/cache/mapstore_tests/map_io";
+// One scratch folder per test process, removed at exit; each test takes a fresh subfolder.
+const vilma::testing::TempDir& ScratchRoot() {
+  static const vilma::testing::TempDir root;
+  return root;
+}
 
 std::string FreshDir(const std::string& name) {
-  const std::string dir = kRoot + "/" + name;
+  const std::string dir = ScratchRoot().File(name);
   fs::remove_all(dir);
   return dir;
 }

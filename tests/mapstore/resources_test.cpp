@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/test_data.h"
 #include "vilma/core/error.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/resources.h"
@@ -15,7 +16,8 @@ std::string Bytes(std::size_t n, char c) { return std::string(n, c); }
 }  // namespace
 
 TEST_CASE("resource cache evicts least recently used by size", "[mapstore]") {
-  const std::string dir = "/work/cache/mapstore_tests/resource_cache";
+  const vilma::testing::TempDir scratch;
+  const std::string dir = scratch.File("resource_cache");
   fs::remove_all(dir);
   VIMap map;
   IdGenerator ids(3);
@@ -52,7 +54,8 @@ TEST_CASE("resource cache evicts least recently used by size", "[mapstore]") {
 }
 
 TEST_CASE("resource files are checked against the manifest", "[mapstore]") {
-  const std::string dir = "/work/cache/mapstore_tests/resource_check";
+  const vilma::testing::TempDir scratch;
+  const std::string dir = scratch.File("resource_check");
   fs::remove_all(dir);
   VIMap map;
   const ResourceId id = IdGenerator(9).Next();
