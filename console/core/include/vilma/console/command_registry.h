@@ -187,7 +187,9 @@ class Command {
     flag.name = name;
     flag.aliases = std::move(aliases);
     flag.type = FlagTraits<T>::kType;
-    Options defaults{};
+    // Value-initialized with `Options()`: `Options defaults{};` (aggregate initialization of an
+    // options struct with a base) gave GCC 12 a false -Wmaybe-uninitialized.
+    Options defaults = Options();
     flag.default_text = FlagTraits<T>::Format(access(defaults));
     flag.help = help;
     spec_.flags.push_back(flag);
