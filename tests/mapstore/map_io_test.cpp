@@ -109,7 +109,7 @@ TEST_CASE("a mission name of any bytes (not UTF-8) saves and loads back", "[maps
   o.missions = 2;
   o.vertices_per_mission = 3;
   VIMap map = MakeSyntheticMap(o);
-  map.mission(map.mission_ids()[0]).name = std::string("bad\xff\xfe name\xc3", 13);
+  map.mission(map.mission_ids()[0]).name = std::string("bad\xff\xfe name\xc3", 12);
   map.mission(map.mission_ids()[1]).name = std::string("nul\0inside", 11);
   const std::string dir = FreshDir("non_utf8_name");
   SaveMap(map, dir);
@@ -254,6 +254,26 @@ TEST_CASE("a failed save leaves the previous map intact", "[mapstore]") {
     REQUIRE(*again.resources().Load(info.type, info.id) == *second.resources().Load(info.type, info.id));
   }
   CHECK(CheckMapConsistency(again).ok());
+}
+
+TEST_CASE("a save removes the temporary manifest of a save killed before its rename",
+          "[mapstore]") {
+  // scripts/crash-campaign.sh: a kill -9 between the temporary manifest's creation and its
+  // rename leaves ".manifest.yaml.XXXXXX" (mkstemp's name) in the map folder.
+  const std::string dir = FreshDir("temporary-manifest");
+  const VIMap map = MakeSyntheticMap(SyntheticMapOptions());
+  SaveMap(map, dir);
+  const std::string manifest = ReadFile(dir + "/manifest.yaml");
+  WriteFile(dir + "/.manifest.yaml.Xq3k9Z", manifest.substr(0, manifest.size() / 2));
+  WriteFile(dir + "/.manifest.yaml.kept", "not a temporary name");
+  WriteFile(dir + "/notes.txt", "a user's file");
+  RequireMapsEqual(map, LoadMap(dir));  // the leftover does not disturb loading
+
+  SaveMap(map, dir);
+  CHECK_FALSE(fs::exists(dir + "/.manifest.yaml.Xq3k9Z"));
+  CHECK(fs::exists(dir + "/.manifest.yaml.kept"));
+  CHECK(fs::exists(dir + "/notes.txt"));
+  RequireMapsEqual(map, LoadMap(dir));
 }
 
 TEST_CASE("mission deltas rebuild the map incrementally", "[mapstore]") {
