@@ -17,9 +17,11 @@
 # acknowledged is in the finalized maps, and every map folder must load and pass
 # check_map_consistency.
 # Save runs: `vilma console` loads a map, changes it (keyframing) and saves it over itself; it
-# is SIGKILLed at a uniformly random time over the save (from the end of keyframing, over the
-# save's measured duration + 50 ms); the folder must then load as the previous generation or
-# the new one, never broken.
+# is SIGKILLed at a uniformly random time over the save (from the console's `> save` line, over
+# the duration of a dry save measured on the same map; scripts/lib/save_kill.py). Whether the
+# manifest's rename (the commit point) happened before the process died is seen by inotify:
+# the folder must then load as the new generation, and as the previous one otherwise, never
+# broken. The table counts the kills before and after the commit point.
 #
 # Usage: scripts/crash-campaign.sh [--runs N] [--daemon-runs N] [--save-runs N] [--save-vertices N] [--seed S]
 #   --runs N       stream runs (default 100), alternating mapstored / sender kills
@@ -243,7 +245,9 @@ for run in $(seq 1 "$daemon_runs"); do
 done
 
 # Save runs: a map to save over, made by one clean stream run.
-save_lost=0; save_unloadable=0; save_old=0; save_new=0
+save_unloadable=0; save_wrong=0; save_before=0; save_after=0; save_late=0; save_before_data=0
+save_resaved=0; save_resave_failed=0; save_leftovers=0
+save_windows=(); save_medians=()
 if [ "$save_runs" -gt 0 ]; then
   dir=$work/save-source
   mkdir -p "$dir"
@@ -257,46 +261,79 @@ if [ "$save_runs" -gt 0 ]; then
   before=$(check_map "$dir/maps/source")
   # Every 4th vertex kept, so that the new generation differs from the previous one.
   save_commands="kfh --kf_distance_threshold_m 1000 --kf_rotation_threshold_deg 180 --kf_every_nth_vertex 4 --kf_min_shared_landmarks_obs 0; save --overwrite"
-  # The command's duration and the save's share of it, to spread the kills over the save.
-  cp -r "$dir/maps/source" "$work/timing-map"
-  start=$(date +%s%N)
-  "$bin/vilma" console "$work/timing-map" -c "$save_commands" > "$work/timing.log" 2>&1
-  command_ms=$(( ($(date +%s%N) - start) / 1000000 ))
-  after=$(check_map "$work/timing-map")
-  save_ms=$(awk '/\(save: / { gsub(/[()s:]/, ""); print int($2 * 1000) }' "$work/timing.log")
-  save_ms=${save_ms:-$command_ms}
-  rm -rf "$work/timing-map"
-  # The kill is timed from the end of kfh (its "(kfh: ..." line, flushed before the save
-  # starts), uniformly over the save's measured duration + 50 ms: the console's start-up and
-  # load take seconds and vary with the machine's load, so a window timed from the command's
-  # start missed the save entirely on a loaded machine (2026-11-27: 100 of 100 kills after it).
-  kill_window_ms=$((save_ms + 50))
+  # scripts/lib/save_kill.py watches the save from outside (the console's flushed `> save` and
+  # `(save: X s)` lines through a pipe, inotify on the map folder for the new generation folder
+  # and the manifest's rename, the commit point) and kills it DELAY ms after the `> save` line,
+  # without forking in between (the grep/sleep polling before 2026-11-27 lagged by tens of ms
+  # at load 7-11, so 150 of 160 kills landed after the commit). Its timer runs at SCHED_FIFO
+  # where allowed (root; the console keeps the campaign's policy and nice value).
+  killer=(python3 "$repo_dir/scripts/lib/save_kill.py")
+  field() { sed -n "s/.*\\b$1=\\([^ ]*\\).*/\\1/p" <<< "$2"; }
+  # A dry save (no kill) measures the save's duration from `> save` to `(save: ...)`; the kill
+  # times are uniform over the median of the last 3 dry saves, measured again every 25 runs,
+  # so that the window follows the machine's load.
+  save_timing() {
+    rm -rf "$work/timing-map"
+    cp -r "$dir/maps/source" "$work/timing-map"
+    local t
+    t=$(SAVE_KILL_LOG="$work/timing.log" "${killer[@]}" timing "$work/timing-map" -- \
+        "$bin/vilma" console "$work/timing-map" -c "$save_commands" 2> /dev/null)
+    echo "save timing: $t" >> "$work/runs.log"
+    after=$(check_map "$work/timing-map")
+    local end
+    end=$(field save_end_ms "$t")
+    [ "$(field exit "$t")" = 0 ] && [ -n "$end" ] && [ "$end" != - ] ||
+      { echo "crash-campaign.sh: the dry save failed: $work/timing.log" >&2; exit 1; }
+    save_windows+=("${end%.*}")
+    rm -rf "$work/timing-map"
+  }
+  save_timing; save_timing; save_timing
   for run in $(seq 1 "$save_runs"); do
+    [ $((run % 25)) -eq 0 ] && save_timing
+    kill_window_ms=$(printf '%s\n' "${save_windows[@]: -3}" | sort -n | sed -n 2p)
+    save_medians+=("$kill_window_ms")
     map=$work/save-$run
     rm -rf "$map"
     cp -r "$dir/maps/source" "$map"
-    "$bin/vilma" console "$map" -c "$save_commands" > "$work/save-$run.log" 2>&1 &
-    console=$!
-    for _ in $(seq 3000); do
-      grep -qs '(kfh: ' "$work/save-$run.log" && break
-      kill -0 $console 2> /dev/null || break
-      sleep 0.01
-    done
-    sleep_ms "$(random_ms 0 "$kill_window_ms")"
-    kill -9 $console 2> /dev/null || true
-    wait $console 2> /dev/null || true
+    delay=$(random_ms 0 "$kill_window_ms")
+    r=$(SAVE_KILL_LOG="$work/save-$run.log" "${killer[@]}" kill "$map" "$delay" -- \
+        "$bin/vilma" console "$map" -c "$save_commands" 2> /dev/null) || r="killer failed"
+    committed=$(field committed "$r"); phase=$(field phase "$r")
     got=$(check_map "$map")
+    # The manifest's rename seen before the process died decides which generation must load.
+    if [ "$committed" = 1 ]; then expected=$after; else expected=$before; fi
     if [ "$got" = unloadable ]; then
       save_unloadable=$((save_unloadable + 1)); status=UNLOADABLE
-    elif [ "$got" = "$before" ]; then
-      save_old=$((save_old + 1)); status="previous generation"
-    elif [ "$got" = "$after" ]; then
-      save_new=$((save_new + 1)); status="new generation"
+    elif [ -z "$committed" ] || [ "$got" != "$expected" ]; then
+      save_wrong=$((save_wrong + 1)); status="WRONG GENERATION ($got vertices, expected $expected)"
+    elif [ "$phase" = after_save ]; then
+      save_late=$((save_late + 1)); status="after the save's end: new generation"
+    elif [ "$phase" = after_commit ]; then
+      save_after=$((save_after + 1)); status="after the commit: new generation"
     else
-      save_lost=$((save_lost + 1)); status="UNEXPECTED ($got vertices)"
+      save_before=$((save_before + 1)); status="before the commit: previous generation"
+      [ "$(field data_files "$r")" -gt 0 ] 2> /dev/null && save_before_data=$((save_before_data + 1))
     fi
-    echo "save run $run: $status" >> "$work/runs.log"
-    case "$status" in UNLOADABLE|UNEXPECTED*) ;; *) rm -rf "$map" "$work/save-$run.log" ;; esac
+    # Recovery: a save over the killed folder must succeed and load with the same vertices
+    # (it reuses the generation folder a crashed save left unlisted and removes what the new
+    # manifest does not list); temporary files still there afterwards are counted.
+    if [ "$got" != unloadable ]; then
+      resaved=unloadable
+      if "$bin/vilma" console "$map" -c "save --overwrite" > "$work/resave-$run.log" 2>&1; then
+        resaved=$(check_map "$map")
+      fi
+      if [ "$resaved" = "$got" ]; then
+        save_resaved=$((save_resaved + 1))
+      else
+        save_resave_failed=$((save_resave_failed + 1)); status="$status; RE-SAVE FAILED ($resaved)"
+      fi
+      leftovers=$(find "$map" -name '.*' -type f | wc -l)
+      save_leftovers=$((save_leftovers + leftovers))
+      [ "$leftovers" -gt 0 ] && status="$status; $leftovers temporary files left: $(cd "$map" && find . -name '.*' -type f | tr '\n' ' ')"
+      rm -f "$work/resave-$run.log"
+    fi
+    echo "save run $run: window $kill_window_ms ms, $r: $status" >> "$work/runs.log"
+    case "$status" in UNLOADABLE*|WRONG*|*FAILED*) ;; *) rm -rf "$map" "$work/save-$run.log" ;; esac
   done
 fi
 
@@ -310,10 +347,10 @@ if [ "$daemon_runs" -gt 0 ]; then
   done
 fi
 if [ "$save_runs" -gt 0 ]; then
-  echo "| kill -9 during \`kfh; save --overwrite\` (kills uniform over the $kill_window_ms ms after kfh; save alone $save_ms ms; $before -> $after vertices) | $save_runs | - | $save_unloadable | previous generation $save_old, new generation $save_new, neither $save_lost |"
+  echo "| kill -9 during \`kfh; save --overwrite\` (kills uniform over the save: from \`> save\` over the median of the last 3 dry saves, $(printf '%s\n' "${save_medians[@]}" | sort -n | sed -n '1h; $!d; x; G; s/\n/-/; p') ms; $(printf '%s\n' "${save_windows[@]}" | sort -n | sed -n '1h; $!d; x; G; s/\n/-/; s/^/dry saves /; p') ms (${#save_windows[@]}); $before -> $after vertices) | $save_runs | - | $save_unloadable | before the commit $save_before (previous generation; $save_before_data of them with new data files written), after the commit $save_after (new generation), after the save's end $save_late, wrong generation $save_wrong; a save over the killed folder: loads $save_resaved, failed $save_resave_failed, temporary files left $save_leftovers |"
 fi
 echo "(details: $work/runs.log)"
 [ $((${lost[mapstored]} + ${lost[sender]} + ${unloadable[mapstored]} + ${unloadable[sender]})) -eq 0 ] && \
   [ $stream_failed -eq 0 ] && \
   [ $((d_lost[mapstored] + d_lost[daemon] + d_unloadable[mapstored] + d_unloadable[daemon] + d_audit_failed[mapstored] + d_audit_failed[daemon])) -eq 0 ] && \
-  [ $save_unloadable -eq 0 ] && [ $save_lost -eq 0 ]
+  [ $save_unloadable -eq 0 ] && [ $save_wrong -eq 0 ] && [ $save_resave_failed -eq 0 ]
