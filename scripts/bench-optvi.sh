@@ -19,12 +19,22 @@
 #      and with a 5 ms clock shift injected into the camera stamps; `optvi` with the extrinsics,
 #      the time offset and the baseframe tilt free; `target_calibration_report`: camera poses
 #      against per-frame PnP, T_I_C against the calibration.
+#   5. (BENCH_LONG=1, off by default: ~25 min at load 5-7 on the shared 2 cores, the set and its
+#      map made once and cached) a 10-minute mission:
+#      the simulated room-long set (600 s, `scripts/make-datasets.sh --only room-long`, ~5 GB),
+#      its VIO map (`vilma vio --save-map`, cached), then `optvi`, `kfh; optvi`,
+#      `lc; rtl; optvi --ba_linear_solver iterative_schur` (the merged landmarks make the reduced
+#      camera matrix too dense for sparse_schur) and `lc; kfh; rtl; optvi` (ROVIOLI's end-of-run
+#      order): vertices, good landmarks, observations, iterations, time per iteration, peak RSS,
+#      vertex ATE before/after, load average.
 #
 # Usage: scripts/bench-optvi.sh [SET ...]     (default: room-easy hall street)
 #   VILMA_BUILD_DIR, VILMA_DATASETS, BENCH_WORK (default ${VILMA_CACHE:-~/.cache/vilma}/bench-optvi),
 #   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2,
 #   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster),
-#   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4.
+#   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4; BENCH_LONG=1 adds table 5 (BENCH_LONG_PIPELINES:
+#   its pipelines separated by `|`, default the four above). On a shared machine run it under
+#   `nice -n 10`.
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -43,7 +53,8 @@ mkdir -p "$work"
 # shellcheck source=lib/vio-map.sh
 . "$repo_dir/scripts/lib/vio-map.sh"
 list=$(IFS=,; echo "${sets[*]}")
-VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" --only "$list" >&2
+[ "${BENCH_SIM:-1}" = 0 ] ||
+  VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" --only "$list" >&2
 
 # field FILE.json KEY [STAT]: a figure of an eval_map JSON (STAT: rmse, median, ...).
 field() {
@@ -217,12 +228,58 @@ if [ "${BENCH_TARGET:-1}" != 0 ] && [ -d "$april" ]; then
   done
 fi
 
+# 5. A 10-minute mission (docs/optimization.md "A 10-minute mission"): the VIO's map of the
+#    600 s room set, cached in $work/room-long-map (remade when older than the set or vilma).
+if [ "${BENCH_LONG:-0}" = 1 ]; then
+  VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" \
+    --only room-long >&2
+  d=$datasets/room-long
+  map=$work/room-long-map
+  if stale "$map.out" "$d/sim.yaml" "$bin/vilma" || [ -z "$(ls -A "$map" 2> /dev/null)" ]; then
+    rm -rf "$map" "$map.out"
+    /usr/bin/time -f "%e %M" -o "$map.time" "$bin/vilma" vio "$d" --out "$map.txt" \
+      --save-map "$map" > "$map.out.tmp" 2>&1 ||
+      { cat "$map.out.tmp" >&2; echo "bench-optvi: vilma vio failed (room-long)" >&2; exit 1; }
+    mv "$map.out.tmp" "$map.out"
+  fi
+  read -r vio_s vio_kb < "$map.time"
+  echo
+  echo "### A 10-minute mission: room-long (600 s), the VIO's map (vilma vio --save-map: $vio_s s, peak RSS $(awk -v k="$vio_kb" 'BEGIN { printf "%.0f", k / 1024 }') MB, map $(du -sm "$map" | cut -f1) MB)"
+  echo
+  echo "| pipeline | vertices | good landmarks | observations | ATE [m] VIO -> after | optvi [s] | iterations | s per iteration | console [s] | peak RSS [MB] | load average start / end |"
+  echo "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|---|"
+  IFS='|' read -r -a long_pipelines <<< \
+    "${BENCH_LONG_PIPELINES:-optvi|kfh; optvi|lc; rtl; optvi --ba_linear_solver iterative_schur|lc; kfh; rtl; optvi}"
+  for pipeline in "${long_pipelines[@]}"; do
+    out=$work/room-long-$(echo "$pipeline" | sed -E 's/--ba_linear_solver //; s/[ ;]+//g')
+    load_start=$(cut -d' ' -f1 /proc/loadavg)
+    start_s=$(date +%s.%N)
+    console "$out.console" "load $map; eval_map $d --json=$out.before.json; $pipeline; \
+      eval_map $d --json=$out.after.json; cmc"
+    seconds=$(awk -v a="$start_s" -v b="$(date +%s.%N)" 'BEGIN { printf "%.1f", b - a }')
+    load_end=$(cut -d' ' -f1 /proc/loadavg)
+    b=$out.before.json a=$out.after.json
+    vertices=$(field "$b" vertices)
+    [ "$(field "$a" vertices)" != "$vertices" ] && vertices="$vertices -> $(field "$a" vertices)"
+    observations=$(grep -o 'residuals: reprojection [0-9]*' "$out.console" | tail -1 | awk '{ print $3 }')
+    iterations=$(optvi_figure "$out.console" it)
+    printf '| `%s` | %s | %s | %s | %s -> %s | %s | %s | %s | %s | %s | %s / %s |\n' \
+      "$pipeline" "$vertices" "$(field "$a" good_landmarks)" "$observations" \
+      "$(fmt "$(field "$b" ate_translation_m)")" "$(fmt "$(field "$a" ate_translation_m)")" \
+      "$(fmt "$(optvi_figure "$out.console" s)" 1 1)" "$iterations" \
+      "$(fmt "$(optvi_figure "$out.console" ms)" 0.001 2)" "$seconds" \
+      "$(awk -v k="$(cat "$out.console.rss")" 'BEGIN { printf "%.0f", k / 1024 }')" \
+      "$load_start" "$load_end"
+  done
+fi
+
 # 3. Speed against COLMAP's bundle_adjuster (Debian colmap 3.8) on the same visual-only problem:
 #    the room's daemon map exported with export_colmap (OPENCV cameras, intrinsics held on both
 #    sides), 30 iterations at most each. COLMAP prints its cost as sqrt(cost / residuals) =
 #    (RMSE per observation) / 2; both are shown as RMSE per observation [px].
 [ "${BENCH_COLMAP:-1}" = 0 ] && exit 0
 command -v colmap > /dev/null || { echo "bench-optvi: colmap missing: no COLMAP table" >&2; exit 0; }
+VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" --only room-easy >&2
 map=$(vio_map room-easy)
 cmp=$work/colmap-compare
 rm -rf "$cmp" && mkdir -p "$cmp/ba"

@@ -4,7 +4,8 @@
 #   scripts/make-datasets.sh [--out DIR] [--only NAME[,NAME...]] [--mono] [--list] [--force]
 #
 # Default folder: ${VILMA_CACHE:-$HOME/.cache/vilma}/datasets (never the repository). Each set
-# is an ASL/EuRoC folder DIR/NAME/ (mav0/..., rig.yaml, sim.yaml). Sets that already exist with
+# is an ASL/EuRoC folder DIR/NAME/ (mav0/..., rig.yaml, sim.yaml). The long sets (ON_DEMAND:
+# room-long, 10 minutes, ~5 GB) are made only when named in --only. Sets that already exist with
 # the same parameters are skipped (the key is stored in NAME/.vilma-sim-key); a set is written
 # into NAME.partial/ and renamed when complete, so an interrupted run leaves nothing half-made.
 # The vilma-sim binary is looked up in $VILMA_SIM, $VILMA_BUILD_DIR/bin, /work/build-sim/bin,
@@ -28,6 +29,10 @@ SETS=(
   "street-s2  street     1    1       60      120"
   "street-s3  street     1    2       60      120"
 )
+# Made only when named in --only: a 10-minute mission (bench-optvi.sh BENCH_LONG=1).
+ON_DEMAND=(
+  "room-long  room       1    0       600     0"
+)
 # Bump when the simulator's output changes, so that old caches are remade.
 SIM_VERSION=1
 # Bump when GenerateRevisitTrajectory changes (only the revisiting sets are remade).
@@ -40,7 +45,7 @@ stereo="--stereo"
 force=0
 list=0
 
-usage() { sed -n '2,13p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
+usage() { sed -n '2,12p' "${BASH_SOURCE[0]}" | sed 's/^# \{0,1\}//'; }
 
 while [[ $# -gt 0 ]]; do
   case "$1" in
@@ -56,8 +61,11 @@ done
 
 if [[ $list -eq 1 ]]; then
   printf '%s\n' "${SETS[@]}"
+  printf '%s  (only with --only)\n' "${ON_DEMAND[@]}"
   exit 0
 fi
+all_sets=("${SETS[@]}")
+if [[ -n "$only" ]]; then all_sets+=("${ON_DEMAND[@]}"); fi
 
 find_sim() {
   local candidates=()
@@ -77,7 +85,7 @@ sim="$(find_sim)" || {
 
 mkdir -p "$out_dir"
 echo "datasets: $out_dir (vilma-sim: $sim)"
-for line in "${SETS[@]}"; do
+for line in "${all_sets[@]}"; do
   read -r name preset seed session seconds revisit <<<"$line"
   if [[ -n "$only" && ",$only," != *",$name,"* ]]; then continue; fi
   key="version=$SIM_VERSION preset=$preset seed=$seed session=$session seconds=$seconds stereo=${stereo:+1}"
