@@ -10,7 +10,8 @@
 # machine a scheduling stall looks like a hang. An input whose fastest of 5 runs by itself
 # takes less than half the limit is counted as a stall (column "stalls", kept in
 # findings/stalls/) and the harness goes on with the rest of its budget; one that is slow by
-# itself is a finding.
+# itself is a finding. A campaign can be stopped early with SIGINT to the harness processes
+# (not to fuzz.sh): each prints its row, "interrupted", with the executions done so far.
 #
 # Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [--timeout S] [HARNESS ...]
 #   --minutes N   per harness (default 1)
@@ -40,7 +41,7 @@ while [ $# -gt 0 ]; do
     --runs) runs=$2; shift 2 ;;
     --jobs) jobs=$2; shift 2 ;;
     --timeout) timeout_s=$2; shift 2 ;;
-    -h|--help) sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
@@ -112,6 +113,9 @@ run_one() {
     execs=$(( execs + ${pass_execs:-0} ))
     [ -n "$pass_rate" ] && { rate_sum=$(( rate_sum + pass_rate )); rate_n=$(( rate_n + 1 )); }
     [ $status -eq 0 ] && break
+    # 72: libFuzzer's exit after SIGINT (a campaign stopped by hand: `kill -INT` of the
+    # harness processes); its final stats are summed like any pass's.
+    [ $status -eq 72 ] && break
     # Only a timeout (and nothing else) may be a stall.
     local new=$(find "$dir/findings" -maxdepth 1 -type f -newer "$dir/pass-start")
     [ -n "$new" ] && [ -z "$(grep -v '/timeout-' <<< "$new")" ] || break
@@ -141,7 +145,7 @@ run_one() {
   count() { find "$dir/findings" -maxdepth 1 -name "$1-*" -newer "$dir/run-start" 2> /dev/null | wc -l; }
   printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "$execs" "$rate" \
     "$(ls "$dir/corpus" | wc -l)" "$(count crash)" "$(count timeout)" "$(count oom)" \
-    "$(count leak)" "$stalls" "$([ $status -eq 0 ] && echo ok || echo "FOUND (exit $status, $seconds s): $dir/last-run.log")"
+    "$(count leak)" "$stalls" "$(case $status in 0) echo ok ;; 72) echo "interrupted after $seconds s" ;; *) echo "FOUND (exit $status, $seconds s): $dir/last-run.log" ;; esac)"
 }
 export -f run_one
 export build_dir work_dir minutes runs repo_dir timeout_s
