@@ -160,6 +160,10 @@ std::string KittiLocalizationOptions::Validate() const {
   if (merge_max_hamming_distance < 0 || merge_max_hamming_distance > 512) {
     return "merge_max_hamming_distance: expected 0..512";
   }
+  if (!(e = disparity.Validate()).empty()) return "disparity." + e;
+  if (!(std::isfinite(track_max_residual_px) && track_max_residual_px > 0.0)) {
+    return "track_max_residual_px: expected > 0";
+  }
   if (!(max_position_error_m > 0.0) || !(max_rotation_error_deg > 0.0)) {
     return "max_position_error_m, max_rotation_error_deg: expected > 0";
   }
@@ -299,22 +303,49 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocaliza
   map.AddMission(mission);
   mapstore::IdGenerator ids = mapstore::IdGenerator::ForMission(mission.id);
 
-  // Landmarks of the previous even frame, for merging: id, p_W and the left descriptor of
-  // its latest observation.
+  // Landmarks of the previous even frame, for merging: id, p_W, the left descriptor of its
+  // latest observation and its track (every stereo view of the landmark).
   struct Tracked {
     mapstore::LandmarkId id;
     Eigen::Vector3d p_W;
     const uint8_t* descriptor;
+    std::size_t track;
   };
+  struct Track {
+    mapstore::LandmarkId id;
+    std::vector<StereoObservation> views;
+  };
+  std::vector<Track> tracks;
   std::vector<Tracked> previous;
   KeyframeFeatures previous_left;  // owns the descriptors `previous` points into
-  int frames = 0, landmarks = 0, merged = 0;
+  int frames = 0, landmarks = 0, merged = 0, refined = 0, unrefined = 0;
   for (const int frame : map_frames) {
     const std::size_t k = static_cast<std::size_t>(frame);
-    const KeyframeFeatures left = extractor.Extract(LoadGray(seq.left_images[k]));
-    const KeyframeFeatures right = extractor.Extract(LoadGray(seq.right_images[k]));
-    const std::vector<StereoMatch> stereo =
+    const cv::Mat left_image = LoadGray(seq.left_images[k]);
+    const cv::Mat right_image = LoadGray(seq.right_images[k]);
+    const KeyframeFeatures left = extractor.Extract(left_image);
+    const KeyframeFeatures right = extractor.Extract(right_image);
+    std::vector<StereoMatch> stereo =
         MatchStereo(left, right, seq.camera, seq.baseline_m, options.stereo);
+    // Disparity of each match: the keypoints' (whole pixels at the detector's level 0), or
+    // refined by patch alignment at the left keypoint.
+    std::vector<double> disparity(stereo.size());
+    for (std::size_t s = 0; s < stereo.size(); ++s) {
+      StereoMatch& m = stereo[s];
+      const cv::Point2f& pl = left.keypoints[static_cast<std::size_t>(m.left)].pt;
+      const Eigen::Vector2d uv_left(pl.x, pl.y);
+      disparity[s] = pl.x - right.keypoints[static_cast<std::size_t>(m.right)].pt.x;
+      if (!options.refine_disparity) continue;
+      const DisparityRefinement r =
+          RefineDisparity(left_image, right_image, uv_left, disparity[s], options.disparity);
+      if (r.ok() && r.disparity_px >= options.stereo.min_disparity_px) {
+        disparity[s] = r.disparity_px;
+        m.p_C = StereoPoint_C(seq.camera, seq.baseline_m, uv_left, r.disparity_px);
+        ++refined;
+      } else {
+        ++unrefined;
+      }
+    }
     const Transformation& T_W_C = seq.T_W_C[k];
     mapstore::Vertex v;
     v.id = ids.Next();
@@ -337,8 +368,10 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocaliza
     std::vector<bool> taken(previous.size(), false);
     std::vector<Tracked> current;
     const int bytes = left.descriptors.cols;
-    for (const StereoMatch& m : stereo) {
+    for (std::size_t s = 0; s < stereo.size(); ++s) {
+      const StereoMatch& m = stereo[s];
       const cv::Point2f& pt = left.keypoints[static_cast<std::size_t>(m.left)].pt;
+      const StereoObservation view{T_W_C, Eigen::Vector2d(pt.x, pt.y), disparity[s]};
       const uint8_t* d = left.descriptors.ptr<uint8_t>(m.left);
       int best = -1, best_h = options.merge_max_hamming_distance + 1;
       for (std::size_t p = 0; p < previous.size(); ++p) {
@@ -352,10 +385,14 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocaliza
       }
       const Eigen::Vector3d p_W = T_W_C * m.p_C;
       mapstore::LandmarkId id;
+      std::size_t track = tracks.size();
       if (best >= 0) {
-        // Re-observed: keep the nearer (more precise: depth noise grows with Z^2) position.
+        // Re-observed: keep the nearer (more precise: depth noise grows with Z^2) position
+        // until the track is triangulated from all its views below.
         taken[static_cast<std::size_t>(best)] = true;
         id = previous[static_cast<std::size_t>(best)].id;
+        track = previous[static_cast<std::size_t>(best)].track;
+        tracks[track].views.push_back(view);
         const Eigen::Vector3d p_old = map.LandmarkPosition_M(id);
         if (m.p_C.z() < (T_C_W * p_old).z()) {
           map.SetLandmarkPosition_M(id, p_W);
@@ -376,19 +413,45 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocaliza
         l.quality = mapstore::LandmarkQuality::kGood;
         id = l.id;
         map.AddLandmark(std::move(l));
+        tracks.push_back({id, {view}});
         ++landmarks;
       }
       map.AddObservation(id, {vertex_id, 0, static_cast<uint32_t>(m.left)});
       map.AddObservation(id, {vertex_id, 1, static_cast<uint32_t>(m.right)});
-      current.push_back({id, map.LandmarkPosition_M(id), d});
+      current.push_back({id, map.LandmarkPosition_M(id), d, track});
     }
     previous = std::move(current);
     previous_left = left;  // cv::Mat shares the buffer `previous` points into
+  }
+  // Landmarks seen by several map frames: the maximum-likelihood point of all stereo views
+  // (M = W), its covariance in the store vertex's frame R_Is_W Sigma_W R_Is_W^T.
+  int triangulated = 0, dropped = 0;
+  if (options.triangulate_tracks) {
+    StereoTrackOptions track_options;
+    track_options.sigma_px = options.landmark_sigma_px;
+    track_options.max_residual_px = options.track_max_residual_px;
+    for (const Track& t : tracks) {
+      if (t.views.size() < 2) continue;
+      const StereoTrackPoint p =
+          TriangulateStereoTrack(t.views, seq.camera, seq.baseline_m, track_options);
+      if (!p.ok) continue;
+      ++triangulated;
+      dropped += static_cast<int>(t.views.size()) - p.views_used;
+      map.SetLandmarkPosition_M(t.id, p.p_W);
+      mapstore::Landmark& l = map.landmark(t.id);
+      const Eigen::Matrix3d R_Is_W =
+          map.vertex(l.store_vertex_id).T_M_I.inverse().rotation().toRotationMatrix();
+      l.covariance = R_Is_W * p.covariance_W * R_Is_W.transpose();
+    }
   }
   if (report != nullptr) {
     report->map_frames = frames;
     report->map_vertices_landmarks = landmarks;
     report->merged_observations = merged;
+    report->refined_disparities = refined;
+    report->unrefined_disparities = unrefined;
+    report->triangulated_tracks = triangulated;
+    report->dropped_track_views = dropped;
   }
   return map;
 }
@@ -473,6 +536,10 @@ std::string KittiLocalizationReport::FullReport() const {
       << " stereo landmarks (" << merged_observations
       << " re-observations merged), localization map " << localization_landmarks
       << " landmarks / " << localization_descriptors << " descriptors\n";
+  out << "stereo: " << refined_disparities << " sub-pixel disparities, "
+      << unrefined_disparities << " kept whole-pixel; " << triangulated_tracks
+      << " landmarks triangulated from >= 2 stereo views (" << dropped_track_views
+      << " views left out)\n";
   out << std::fixed << std::setprecision(1) << "map build " << map_build_ms
       << " ms, projection training " << projection_train_ms << " ms, index build "
       << index_build_ms << " ms\n\n";

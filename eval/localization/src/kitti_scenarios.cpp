@@ -25,13 +25,15 @@ std::vector<int> Frames(int frames, int begin, int end, int step, int offset_mod
   return out;
 }
 
-// Copies landmark l of `in` (its descriptors and observers) to the end of `out`, moved by shift.
+// Copies landmark l of `in` (its descriptors, observers and covariance, when the map has
+// covariances) to the end of `out`, moved by shift.
 void AppendLandmark(const LocalizationMap& in, std::size_t l, const Eigen::Vector3d& shift,
                     const std::vector<std::vector<std::size_t>>& descriptors_of,
                     LocalizationMap* out) {
   const uint32_t nl = static_cast<uint32_t>(out->p_G.size());
   out->landmark_ids.push_back(in.landmark_ids[l]);
   out->p_G.push_back(in.p_G[l] + shift);
+  if (!in.p_G_covariance.empty()) out->p_G_covariance.push_back(in.p_G_covariance[l]);
   for (uint32_t k = in.observer_begin[l]; k < in.observer_begin[l + 1]; ++k) {
     out->observer_index.push_back(in.observer_index[k]);
   }

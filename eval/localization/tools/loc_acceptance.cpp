@@ -40,7 +40,8 @@ namespace fs = std::filesystem;
 constexpr int kExitOk = 0, kExitInput = 1, kExitUsage = 2;
 
 void PrintHelp(std::ostream& out) {
-  out << "usage: vilma-loc-acceptance kitti KITTI_DIR [--scenario NAME]... [common options]\n"
+  out << "usage: vilma-loc-acceptance kitti KITTI_DIR [--scenario NAME]... [--kitti-map MODE]\n"
+         "                            [--perturbation-seed N] [common options]\n"
          "       vilma-loc-acceptance header   (the table's header only)\n"
          "       vilma-loc-acceptance landmarks MAP.vlocmap SIM_DATASET\n"
          "       vilma-loc-acceptance asl DATASET MAP.vlocmap [--name NAME] [--every N]\n"
@@ -58,7 +59,12 @@ void PrintHelp(std::ostream& out) {
          "kitti: scenarios of one KITTI stereo slice (map built with the ground-truth poses,\n"
          "  as 'vilma localize-kitti'): even-odd, sparse-map, other-part, swapped-50,\n"
          "  swapped-80, few-keypoints, corner, far-landmarks, repeated, repeated-third\n"
-         "  (default: all).\n"
+         "  (default: all). --kitti-map: the map's stereo points: 'subpixel' (default;\n"
+         "  sub-pixel disparity, the nearest view's point), 'tracks' (sub-pixel, landmarks of\n"
+         "  several map frames triangulated from all their views) or 'integer' (the\n"
+         "  keypoints' disparity, the nearest view's point: the maps before 2026-11-27).\n"
+         "  --perturbation-seed N: added to every scenario's query-perturbation seed (other\n"
+         "  swapped descriptors; default 0).\n"
          "asl: every Nth frame (--every, default 1) from --first (default 0) of camera C of an\n"
          "  ASL dataset against a .vlocmap whose frame G is the ground truth's W\n"
          "  (vilma-locmap-gt, or 'vilma map-from-poses' + 'vilma locmap build'), with the\n"
@@ -95,6 +101,8 @@ struct Args {
   QueryPerturbation perturbation;
   bool header = false, queries = false, help = false;
   std::vector<int> inlier_frames;  // --inliers: match records of these frames when accepted
+  std::string kitti_map = "subpixel";  // --kitti-map: integer, subpixel or tracks
+  uint64_t perturbation_seed = 0;      // --perturbation-seed: added to the scenarios' seeds
 };
 
 Args Parse(const std::vector<std::string>& argv) {
@@ -135,6 +143,14 @@ Args Parse(const std::vector<std::string>& argv) {
       a.header = true;
     } else if (n == "--queries") {
       a.queries = true;
+    } else if (n == "--kitti-map") {
+      a.kitti_map = arg.Value();
+      if (a.kitti_map != "integer" && a.kitti_map != "subpixel" && a.kitti_map != "tracks") {
+        throw UsageError("--kitti-map: expected integer, subpixel or tracks, got '" + a.kitti_map +
+                         "'");
+      }
+    } else if (n == "--perturbation-seed") {
+      a.perturbation_seed = static_cast<uint64_t>(arg.IntValue(0));
     } else if (n == "--inliers") {
       a.inlier_frames.push_back(arg.IntValue(0));
     } else if (arg.is_option()) {
@@ -168,6 +184,9 @@ Args Parse(const std::vector<std::string>& argv) {
   } else if (a.mode == "asl") {
     if (positional.size() != 3) throw UsageError("asl: expected DATASET and MAP.vlocmap");
     if (!a.scenarios.empty()) throw UsageError("asl: --scenario is for kitti");
+    if (a.kitti_map != "subpixel" || a.perturbation_seed != 0) {
+      throw UsageError("asl: --kitti-map and --perturbation-seed are for kitti");
+    }
     a.input = positional[1];
     a.map = positional[2];
   } else {
@@ -207,6 +226,8 @@ void RunKitti(const Args& a, const LocalizerOptions& options, std::ostream& out)
   const KittiSequence seq = LoadKittiSequence(a.input);
   KittiLocalizationOptions kitti;
   kitti.localizer = options;
+  kitti.refine_disparity = a.kitti_map != "integer";
+  kitti.triangulate_tracks = a.kitti_map == "tracks";
   const std::vector<KittiScenario> all = KittiScenarios(static_cast<int>(seq.size()));
   std::vector<KittiScenario> chosen;
   for (const std::string& name : a.scenarios) {
@@ -216,6 +237,7 @@ void RunKitti(const Args& a, const LocalizerOptions& options, std::ostream& out)
     chosen.push_back(*it);
   }
   if (chosen.empty()) chosen = all;
+  for (KittiScenario& s : chosen) s.perturbation.seed += a.perturbation_seed;
   if (a.header) WriteAcceptanceHeader(out);
   for (const KittiScenario& s : chosen) {
     const std::vector<AcceptanceQuery> q = RunKittiScenario(seq, kitti, s, AcceptanceGates());

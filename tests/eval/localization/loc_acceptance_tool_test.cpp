@@ -42,6 +42,10 @@ TEST_CASE("vilma-loc-acceptance: usage and input errors", "[localization]") {
   CHECK_THAT(out, Catch::Contains("box"));
   CHECK(Run(kTool + " asl a b --swap x", &out) == 2);
   CHECK(Run(kTool + " kitti a --swap 0.5", &out) == 2);  // the scenarios define their own
+  CHECK(Run(kTool + " kitti a --kitti-map exact", &out) == 2);
+  CHECK_THAT(out, Catch::Contains("integer, subpixel or tracks"));
+  CHECK(Run(kTool + " asl a b --kitti-map integer", &out) == 2);  // KITTI maps only
+  CHECK(Run(kTool + " asl a b --perturbation-seed 3", &out) == 2);
   CHECK(Run(kTool + " asl /nonexistent-dataset x.vlocmap", &out) == 1);
   // landmarks: two arguments; a folder without sim.yaml is named.
   CHECK(Run(kTool + " landmarks only-one.vlocmap", &out) == 2);

@@ -1,6 +1,7 @@
 // Real-image localization check on a KITTI odometry stereo slice (docs/localizer.md, "KITTI
 // localization check"): a VI-map is built from the EVEN frames only (BRISK features in the left
-// and right rectified images, stereo matches along the rows, triangulated in the left camera
+// and right rectified images, stereo matches along the rows with their disparity refined to
+// sub-pixel by patch alignment (stereo_geometry.h), triangulated in the left camera
 // and placed in the world with the ground-truth pose; a landmark seen again in the next even
 // frame is merged), then every ODD left image, which the map has never seen, is localized with
 // Localizer::Localize and compared with its ground-truth pose. Used by the test
@@ -15,6 +16,7 @@
 
 #include "vilma/core/camera.h"
 #include "vilma/core/geometry.h"
+#include "vilma/eval/localization/stereo_geometry.h"
 #include "vilma/localizer/feature_options.h"
 #include "vilma/localizer/keyframe_features.h"
 #include "vilma/localizer/localizer.h"
@@ -81,8 +83,19 @@ struct KittiLocalizationOptions {
   double merge_radius_px = 6.0;
   int merge_max_hamming_distance = 70;
   // Keypoint noise of the stereo triangulation [px]: each landmark's covariance (the map's
-  // p_G_covariance, used by the localizer's acceptance) is sigma^2 (J_L^T J_L + J_R^T J_R)^-1.
+  // p_G_covariance, used by the localizer's acceptance) is sigma^2 (sum J^T J)^-1 over its
+  // used stereo views (left and right).
   double landmark_sigma_px = 1.0;
+  // Sub-pixel disparity of every stereo match by 1-D patch alignment (stereo_geometry.h); a
+  // match whose refinement fails keeps the keypoints' disparity (counted in the report).
+  bool refine_disparity = true;
+  DisparityRefinementOptions disparity;
+  // true: a landmark merged over several map frames gets the maximum-likelihood point of all
+  // its stereo views (TriangulateStereoTrack; views off by more than track_max_residual_px
+  // left out). Off by default: measured, it accepted a wrong pose on kitti far-landmarks
+  // (docs/localizer.md, "Sub-pixel stereo"); false keeps the nearest view's stereo point.
+  bool triangulate_tracks = false;
+  double track_max_residual_px = 2.5;
   // Success gates of a localization (the issue's recall definition).
   double max_position_error_m = 0.3;
   double max_rotation_error_deg = 2.0;
@@ -114,6 +127,10 @@ struct KittiLocalizationReport {
   int map_frames = 0;
   int map_vertices_landmarks = 0;    // landmarks put in the VI-map
   int merged_observations = 0;       // landmarks re-observed in the next even frame
+  int refined_disparities = 0;       // stereo matches with a sub-pixel disparity
+  int unrefined_disparities = 0;     // refinement failed: the keypoints' disparity kept
+  int triangulated_tracks = 0;       // landmarks with >= 2 stereo views, jointly triangulated
+  int dropped_track_views = 0;       // of their views, left out as inconsistent
   int localization_landmarks = 0;
   int localization_descriptors = 0;
   double map_build_ms = 0.0;         // features + stereo + VI-map + localization map
