@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/test_utils.h"
+#include "test_random.h"
 
 namespace vilma {
 namespace {
@@ -19,7 +20,7 @@ constexpr double kPi = M_PI;
 // Random unit vector times a given angle [rad].
 Eigen::Vector3d RandomRotationVector(std::mt19937* rng, double angle) {
   std::normal_distribution<double> normal(0.0, 1.0);
-  Eigen::Vector3d axis(normal(*rng), normal(*rng), normal(*rng));
+  const Eigen::Vector3d axis = vilma::testing::DrawVector3([&] { return normal(*rng); });
   return angle * axis.normalized();
 }
 
@@ -48,8 +49,10 @@ struct RandomTwists {
 Transformation RandomTransformation(std::mt19937* rng) {
   std::uniform_real_distribution<double> uniform(-1.0, 1.0);
   std::uniform_real_distribution<double> angle(0.0, kPi);
-  return Transformation(ExpSO3(RandomRotationVector(rng, angle(*rng))),
-                        Eigen::Vector3d(uniform(*rng), uniform(*rng), uniform(*rng)) * 5.0);
+  // The translation first, then the angle, then the axis (tests/test_random.h).
+  const Eigen::Vector3d p = vilma::testing::DrawVector3([&] { return uniform(*rng); }) * 5.0;
+  const double a = angle(*rng);
+  return Transformation(ExpSO3(RandomRotationVector(rng, a)), p);
 }
 
 // Twist matrix [Skew(phi) rho; 0 0] of xi = [rho; phi]; its matrix exponential is the

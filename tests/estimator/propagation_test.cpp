@@ -4,6 +4,7 @@
 #include <random>
 
 #include "core/test_utils.h"
+#include "test_random.h"
 #include "vilma/core/geometry.h"
 
 namespace vilma::estimator {
@@ -12,7 +13,7 @@ namespace {
 FilterState RandomState(std::mt19937* rng, int slots) {
   std::normal_distribution<double> n(0.0, 1.0);
   auto vec = [&](double s) -> Eigen::Vector3d {
-    return Eigen::Vector3d(n(*rng), n(*rng), n(*rng)) * s;
+    return vilma::testing::DrawVector3([&] { return n(*rng); }) * s;
   };
   FilterState x;
   x.p_M_I = vec(2.0);
@@ -27,7 +28,9 @@ FilterState RandomState(std::mt19937* rng, int slots) {
   for (int i = 0; i < slots; ++i) {
     FeatureState& f = x.features[static_cast<std::size_t>(i)];
     f.active = i != 1;  // slot 1 stays inactive
-    f.mu_C = (Eigen::Vector3d(0.4 * n(*rng), 0.4 * n(*rng), 1.0)).normalized();
+    const double mu_y = 0.4 * n(*rng);  // y before x, as GCC drew them (tests/test_random.h)
+    const double mu_x = 0.4 * n(*rng);
+    f.mu_C = Eigen::Vector3d(mu_x, mu_y, 1.0).normalized();
     f.rho = 0.2 + 0.3 * std::abs(n(*rng));
   }
   return x;

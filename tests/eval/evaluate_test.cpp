@@ -9,6 +9,7 @@
 
 #include "vilma/core/error.h"
 #include "test_skip.h"
+#include "test_random.h"
 #include "eval/test_trajectories.h"
 
 namespace vilma {
@@ -123,7 +124,7 @@ TEST_CASE("align first: the yaw + translation of the first matched pose", "[eval
   std::mt19937 rng(3);
   std::normal_distribution<double> noise(0.0, 0.05);
   std::vector<Eigen::Vector3d> n(gt.size());
-  for (auto& x : n) x = Eigen::Vector3d(noise(rng), noise(rng), noise(rng));
+  for (auto& x : n) x = vilma::testing::DrawVector3([&] { return noise(rng); });
   SECTION("noise-free first pose: the exact transform") {
     n[0].setZero();
   }
@@ -343,7 +344,7 @@ TEST_CASE("ATE of white position noise is sigma * sqrt(3)", "[eval]") {
   std::normal_distribution<double> noise(0.0, 0.02);
   for (auto& T : est.T_W_B) {
     T = Transformation(T.rotation(),
-                       T.translation() + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+                       T.translation() + vilma::testing::DrawVector3([&] { return noise(rng); }));
   }
   const EvalResult r = EvaluateTrajectory(gt, est, Options(AlignmentType::kSe3));
   // E|n|^2 = 3 sigma^2; 12000 samples -> relative standard error of the RMSE ~0.5 %.

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "test_cameras.h"
+#include "test_random.h"
 
 using namespace vilma;
 using namespace vilma::localizer;
@@ -31,14 +32,16 @@ void AddInliers(const Camera& cam, int n, double x0, double y0, double x1, doubl
   std::normal_distribution<double> g(0.0, noise_px);
   int added = 0;
   while (added < n) {
-    const Eigen::Vector2d px((x0 + (x1 - x0) * u(*rng)) * cam.width(),
-                             (y0 + (y1 - y0) * u(*rng)) * cam.height());
+    // y before x: the order GCC drew them in (tests/test_random.h).
+    const double y = (y0 + (y1 - y0) * u(*rng)) * cam.height();
+    const double x = (x0 + (x1 - x0) * u(*rng)) * cam.width();
+    const Eigen::Vector2d px(x, y);
     Eigen::Vector3d f;
     if (!cam.Unproject(px, &f)) continue;
     const Eigen::Vector3d p_C = f / f.z() * (z0 + (z1 - z0) * u(*rng));
     Eigen::Vector2d k;
     if (cam.Project(p_C, &k) != Camera::ProjectionResult::kValid) continue;
-    s->uv.push_back(k + Eigen::Vector2d(g(*rng), g(*rng)));
+    s->uv.push_back(k + vilma::testing::DrawVector2([&] { return g(*rng); }));
     s->p_G.push_back(kT_G_C * p_C);
     ++added;
   }
@@ -48,8 +51,14 @@ void AddInliers(const Camera& cam, int n, double x0, double y0, double x1, doubl
 void AddOutliers(const Camera& cam, int n, std::mt19937_64* rng, Scene* s) {
   std::uniform_real_distribution<double> u(0.0, 1.0);
   for (int i = 0; i < n; ++i) {
-    s->uv.emplace_back(u(*rng) * cam.width(), u(*rng) * cam.height());
-    s->p_G.push_back(kT_G_C * Eigen::Vector3d(8 * u(*rng) - 4, 6 * u(*rng) - 3, 1 + 8 * u(*rng)));
+    // Coordinates last to first: the order GCC drew them in (tests/test_random.h).
+    const double y = u(*rng) * cam.height();
+    const double x = u(*rng) * cam.width();
+    s->uv.emplace_back(x, y);
+    const double p_z = 1 + 8 * u(*rng);
+    const double p_y = 6 * u(*rng) - 3;
+    const double p_x = 8 * u(*rng) - 4;
+    s->p_G.push_back(kT_G_C * Eigen::Vector3d(p_x, p_y, p_z));
   }
 }
 
@@ -338,9 +347,9 @@ UncertainScene MakeUncertainScene(const Camera& cam, int near, int far, double s
   for (int i = 0; i < near + far; ++i) {
     const double z = i < near ? 5.0 + 5.0 * u(rng) : 20.0 + 20.0 * u(rng);
     Eigen::Vector3d f;
-    REQUIRE(cam.Unproject(Eigen::Vector2d((0.05 + 0.9 * u(rng)) * cam.width(),
-                                          (0.05 + 0.9 * u(rng)) * cam.height()),
-                          &f));
+    const double y = (0.05 + 0.9 * u(rng)) * cam.height();  // y before x, as GCC drew them
+    const double x = (0.05 + 0.9 * u(rng)) * cam.width();   // (tests/test_random.h)
+    REQUIRE(cam.Unproject(Eigen::Vector2d(x, y), &f));
     const Eigen::Vector3d p_G = kT_G_C * (f / f.z() * z);
     s.p_G.push_back(p_G);
     s.covariance_G.push_back(StereoCovariance_G(cam, T_G_M, p_G, 0.54, stereo_sigma_px));
@@ -422,8 +431,8 @@ MonteCarloSigmas RunMonteCarlo(const Camera& cam, const UncertainScene& scene, i
     std::vector<Eigen::Vector3d> p_G(n);
     std::vector<Eigen::Vector2d> uv(n);
     for (std::size_t i = 0; i < n; ++i) {
-      p_G[i] = scene.p_G[i] + chol[i] * Eigen::Vector3d(g(rng), g(rng), g(rng));
-      uv[i] = uv_true[i] + Eigen::Vector2d(g(rng), g(rng));
+      p_G[i] = scene.p_G[i] + chol[i] * vilma::testing::DrawVector3([&] { return g(rng); });
+      uv[i] = uv_true[i] + vilma::testing::DrawVector2([&] { return g(rng); });
     }
     Transformation T = kT_G_C;
     if (estimator == CovarianceOf::kWeighted) {
@@ -531,7 +540,7 @@ TEST_CASE("pose acceptance: far stereo landmarks make the pose uncertain only wi
   for (const Eigen::Vector3d& p : scene.p_G) {
     Eigen::Vector2d k;
     REQUIRE(cam.Project(kT_G_C.inverse() * p, &k) == Camera::ProjectionResult::kValid);
-    uv.push_back(k + Eigen::Vector2d(g(rng), g(rng)));
+    uv.push_back(k + vilma::testing::DrawVector2([&] { return g(rng); }));
   }
   PoseRansacOptions ransac;
   const PoseResult pose = EstimateCameraPose(cam, uv, scene.p_G, ransac);
@@ -568,7 +577,7 @@ TEST_CASE("pose acceptance: unweighted_covariance gates on the sandwich covarian
   for (const Eigen::Vector3d& p : scene.p_G) {
     Eigen::Vector2d k;
     REQUIRE(cam.Project(kT_G_C.inverse() * p, &k) == Camera::ProjectionResult::kValid);
-    uv.push_back(k + Eigen::Vector2d(g(rng), g(rng)));
+    uv.push_back(k + vilma::testing::DrawVector2([&] { return g(rng); }));
   }
   PoseRansacOptions ransac;
   const PoseResult pose = EstimateCameraPose(cam, uv, scene.p_G, ransac);

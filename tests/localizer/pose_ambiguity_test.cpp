@@ -7,6 +7,7 @@
 #include <random>
 
 #include "test_cameras.h"
+#include "test_random.h"
 
 using namespace vilma;
 using namespace vilma::localizer;
@@ -32,7 +33,9 @@ Scene CornerScene(const Camera& cam, int band, int near, int outliers, uint64_t 
   Scene s;
   auto add = [&](int n, double r0, double r1) {  // distances from the camera [m]
     for (int added = 0; added < n;) {
-      const Eigen::Vector2d px(0.4 * cam.width() * u(rng), 0.5 * cam.height() * u(rng));
+      const double y = 0.5 * cam.height() * u(rng);  // y before x, as GCC drew them
+      const double x = 0.4 * cam.width() * u(rng);   // (tests/test_random.h)
+      const Eigen::Vector2d px(x, y);
       Eigen::Vector3d f;
       if (!cam.Unproject(px, &f)) continue;
       const Eigen::Vector3d p_C = f.normalized() * (r0 + (r1 - r0) * u(rng));
@@ -46,8 +49,14 @@ Scene CornerScene(const Camera& cam, int band, int near, int outliers, uint64_t 
   add(band, 5.3, 5.7);
   add(near, 1.8, 2.2);
   for (int i = 0; i < outliers; ++i) {
-    s.uv.emplace_back(u(rng) * cam.width(), u(rng) * cam.height());
-    s.p_G.push_back(kT_G_C * Eigen::Vector3d(8 * u(rng) - 4, 6 * u(rng) - 3, 1 + 8 * u(rng)));
+    // Coordinates last to first: the order GCC drew them in (tests/test_random.h).
+    const double y = u(rng) * cam.height();
+    const double x = u(rng) * cam.width();
+    s.uv.emplace_back(x, y);
+    const double p_z = 1 + 8 * u(rng);
+    const double p_y = 6 * u(rng) - 3;
+    const double p_x = 8 * u(rng) - 4;
+    s.p_G.push_back(kT_G_C * Eigen::Vector3d(p_x, p_y, p_z));
   }
   return s;
 }

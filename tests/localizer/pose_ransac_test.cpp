@@ -6,6 +6,7 @@
 #include <random>
 
 #include "test_cameras.h"
+#include "test_random.h"
 
 using namespace vilma;
 using namespace vilma::localizer;
@@ -24,16 +25,23 @@ void MakeMatches(const Camera& cam, const Transformation& T_G_C, int n, double o
   std::normal_distribution<double> g(0.0, noise_px);
   const int outliers = static_cast<int>(std::lround(outlier_ratio * n));
   while (static_cast<int>(uv->size()) < n) {
-    const Eigen::Vector2d px(u(rng) * cam.width(), u(rng) * cam.height());
+    const double y = u(rng) * cam.height();  // y before x, as GCC drew them
+    const double x = u(rng) * cam.width();   // (tests/test_random.h)
+    const Eigen::Vector2d px(x, y);
     Eigen::Vector3d f;
     if (!cam.Unproject(px, &f)) continue;
     const Eigen::Vector3d p_C = f / f.z() * (1.0 + 7.0 * u(rng));
     Eigen::Vector2d k;
     if (cam.Project(p_C, &k) != Camera::ProjectionResult::kValid) continue;
     const bool outlier = static_cast<int>(uv->size()) < outliers;
-    const Eigen::Vector3d p_C_used =
-        outlier ? Eigen::Vector3d(4 * u(rng) - 2, 3 * u(rng) - 1.5, 1 + 7 * u(rng)) : p_C;
-    uv->push_back(k + Eigen::Vector2d(g(rng), g(rng)));
+    Eigen::Vector3d p_C_used = p_C;
+    if (outlier) {  // a random point, drawn z, y, x
+      const double p_z = 1 + 7 * u(rng);
+      const double p_y = 3 * u(rng) - 1.5;
+      const double p_x = 4 * u(rng) - 2;
+      p_C_used = Eigen::Vector3d(p_x, p_y, p_z);
+    }
+    uv->push_back(k + vilma::testing::DrawVector2([&] { return g(rng); }));
     p_G->push_back(T_G_C * p_C_used);
   }
 }

@@ -14,12 +14,17 @@ inline cv::Mat TexturedImage(int width, int height, uint64_t seed) {
   cv::RNG rng(seed);
   cv::Mat image(height, width, CV_8UC1, cv::Scalar(128));
   for (int k = 0; k < 900; ++k) {
-    const cv::Point c(rng.uniform(-20, width + 20), rng.uniform(-20, height + 20));
+    // Last argument first, in the order GCC drew them (tests/test_random.h).
+    const int c_y = rng.uniform(-20, height + 20);
+    const int c_x = rng.uniform(-20, width + 20);
+    const cv::Point c(c_x, c_y);
     const int grey = rng.uniform(0, 256);
     if (rng.uniform(0, 3) == 0) {
       cv::circle(image, c, rng.uniform(3, 25), cv::Scalar(grey), cv::FILLED, cv::LINE_AA);
     } else {
-      const cv::Size s(rng.uniform(4, 45), rng.uniform(4, 45));
+      const int s_height = rng.uniform(4, 45);
+      const int s_width = rng.uniform(4, 45);
+      const cv::Size s(s_width, s_height);
       const cv::RotatedRect r(cv::Point2f(static_cast<float>(c.x), static_cast<float>(c.y)),
                               cv::Size2f(static_cast<float>(s.width),
                                          static_cast<float>(s.height)),

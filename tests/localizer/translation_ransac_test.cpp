@@ -4,6 +4,7 @@
 #include <catch2/catch.hpp>
 #include <random>
 
+#include "test_random.h"
 #include "vilma/core/geometry.h"
 
 namespace vilma::localizer {
@@ -25,18 +26,22 @@ Correspondences Make(const Eigen::Matrix3d& R, const Eigen::Vector3d& t, int n,
   std::normal_distribution<double> gauss(0.0, noise);
   Correspondences c;
   for (int i = 0; i < n; ++i) {
-    const Eigen::Vector3d p_prev(3.0 * uni(rng), 2.0 * uni(rng), 6.0 + 4.0 * uni(rng));
+    // z, y, x: the order GCC drew them in (tests/test_random.h).
+    const double z = 6.0 + 4.0 * uni(rng);
+    const double y = 2.0 * uni(rng);
+    const double x = 3.0 * uni(rng);
+    const Eigen::Vector3d p_prev(x, y, z);
     const Eigen::Vector3d p_cur = R * p_prev + t;
     Eigen::Vector3d f = p_cur.normalized();
     const Eigen::Vector3d a = (R * p_prev).normalized();
     const bool outlier = i < static_cast<int>(outlier_fraction * n);
     if (outlier) {
-      Eigen::Vector3d axis(uni(rng), uni(rng), uni(rng));
+      Eigen::Vector3d axis = vilma::testing::DrawVector3([&] { return uni(rng); });
       axis = axis.cross(f).normalized();
       const double angle = (3.0 + 27.0 * (0.5 + 0.5 * uni(rng))) * M_PI / 180.0;
       f = Eigen::AngleAxisd(angle, axis) * f;
     } else if (noise > 0.0) {
-      f = (f + Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng))).normalized();
+      f = (f + vilma::testing::DrawVector3([&] { return gauss(rng); })).normalized();
     }
     c.a.push_back(a);
     c.f_c.push_back(f);

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <random>
 
+#include "test_random.h"
+
 using namespace vilma;
 using namespace vilma::mapping;
 
@@ -43,7 +45,7 @@ std::vector<TriangulationObservation> Observe(const Camera& camera, const Eigen:
     o.T_M_C = LookAt(c, look, 0.1 * k);
     o.camera = &camera;
     REQUIRE(camera.Project(o.T_M_C.inverse() * p_M, &o.uv) == Camera::ProjectionResult::kValid);
-    if (noise_px > 0) o.uv += Eigen::Vector2d(noise(*rng), noise(*rng));
+    if (noise_px > 0) o.uv += vilma::testing::DrawVector2([&] { return noise(*rng); });
     obs.push_back(o);
   }
   return obs;

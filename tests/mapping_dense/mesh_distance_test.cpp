@@ -7,6 +7,8 @@
 #include <limits>
 #include <random>
 
+#include "test_random.h"
+
 using namespace vilma;
 using namespace vilma::mapping;
 
@@ -65,10 +67,13 @@ TEST_CASE("point-triangle distance: every Voronoi region against references", "[
   int regions[7] = {0, 0, 0, 0, 0, 0, 0};
   double worst_reference = 0.0;
   for (int t = 0; t < 60; ++t) {
-    const Eigen::Vector3d a(n(rng), n(rng), n(rng)), b(n(rng), n(rng), n(rng)), c(n(rng), n(rng), n(rng));
+    const auto draw = [&] { return n(rng); };
+    const Eigen::Vector3d a = vilma::testing::DrawVector3(draw);
+    const Eigen::Vector3d b = vilma::testing::DrawVector3(draw);
+    const Eigen::Vector3d c = vilma::testing::DrawVector3(draw);
     if ((b - a).cross(c - a).norm() < 0.05) continue;  // too thin for the sampled reference
     for (int s = 0; s < 40; ++s) {
-      const Eigen::Vector3d p = (a + b + c) / 3.0 + 1.5 * Eigen::Vector3d(n(rng), n(rng), n(rng));
+      const Eigen::Vector3d p = (a + b + c) / 3.0 + 1.5 * vilma::testing::DrawVector3(draw);
       const double d = PointTriangleDistance(p, a, b, c);
       int region = -1;
       const double reference = ReferenceDistance(p, a, b, c, &region);
@@ -139,10 +144,16 @@ TEST_CASE("mesh distance index: brute force within the radius, infinity beyond",
   std::mt19937_64 rng(9);
   std::normal_distribution<double> n(0.0, 1.0);
   for (int t = 0; t < 40; ++t) {
-    const Eigen::Vector3d centre(1.5 * n(rng), 1.5 * n(rng), 0.5 + std::abs(n(rng)));
+    // z, y, x: the order GCC drew them in (tests/test_random.h).
+    const double z = 0.5 + std::abs(n(rng));
+    const double y = 1.5 * n(rng);
+    const double x = 1.5 * n(rng);
+    const Eigen::Vector3d centre(x, y, z);
     const double size = 0.02 + 0.5 * std::abs(n(rng));
     const int base = static_cast<int>(mesh.vertices.size());
-    for (int k = 0; k < 3; ++k) mesh.vertices.push_back(centre + size * Eigen::Vector3d(n(rng), n(rng), n(rng)));
+    for (int k = 0; k < 3; ++k) {
+      mesh.vertices.push_back(centre + size * vilma::testing::DrawVector3([&] { return n(rng); }));
+    }
     mesh.triangles.push_back({base, base + 1, base + 2});
   }
   const int base = static_cast<int>(mesh.vertices.size());
@@ -163,7 +174,10 @@ TEST_CASE("mesh distance index: brute force within the radius, infinity beyond",
     const MeshDistanceIndex index(mesh, cell);
     int within = 0, beyond = 0;
     for (int q = 0; q < 400; ++q) {
-      const Eigen::Vector3d p(1.2 * n(rng), 1.2 * n(rng), 0.8 * n(rng));
+      const double z = 0.8 * n(rng);  // z, y, x, as GCC drew them
+      const double y = 1.2 * n(rng);
+      const double x = 1.2 * n(rng);
+      const Eigen::Vector3d p(x, y, z);
       const double radius = q % 2 == 0 ? 0.1 : 0.37;
       const double expected = brute(p);
       const double d = index.Distance(p, radius);

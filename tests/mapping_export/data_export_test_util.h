@@ -160,7 +160,13 @@ inline ProjectedMap MakeProjectedMap(const ProjectedMapOptions& o) {
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> ux(5, 12), uy(-3, 3), uz(-0.5, 2.5);
   std::vector<Eigen::Vector3d> p_G(o.landmarks);
-  for (Eigen::Vector3d& p : p_G) p = Eigen::Vector3d(ux(rng), uy(rng), uz(rng));
+  for (Eigen::Vector3d& p : p_G) {
+    // z, y, x: the order GCC drew them in (tests/test_random.h).
+    const double z = uz(rng);
+    const double y = uy(rng);
+    const double x = ux(rng);
+    p = Eigen::Vector3d(x, y, z);
+  }
 
   IdGenerator mission_ids(o.seed);
   std::vector<LandmarkId> landmark_ids(o.landmarks);

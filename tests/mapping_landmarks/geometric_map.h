@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "mapstore/synthetic_map.h"
+#include "test_random.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping::testing {
@@ -35,7 +36,11 @@ inline GeometricMap MakeGeometricMap(int vertices = 6, int landmarks = 40, doubl
   }
   const Transformation T_G_C0 = T_G_I[0] * T_I_C;
   for (int j = 0; j < landmarks; ++j) {
-    g.p_G_true.push_back(T_G_C0 * Eigen::Vector3d(u(rng) * 1.2, u(rng) * 0.8, 4.5 + u(rng) * 1.5));
+    // z, y, x: the order GCC drew them in (tests/test_random.h).
+    const double z = 4.5 + u(rng) * 1.5;
+    const double y = u(rng) * 0.8;
+    const double x = u(rng) * 1.2;
+    g.p_G_true.push_back(T_G_C0 * Eigen::Vector3d(x, y, z));
   }
   const int missions = second_mission ? 2 : 1;
   mapstore::IdGenerator mission_ids(seed);
@@ -69,7 +74,7 @@ inline GeometricMap MakeGeometricMap(int vertices = 6, int landmarks = 40, doubl
         if (camera.Project(T_C_G * g.p_G_true[j], &uv) != Camera::ProjectionResult::kValid) {
           continue;
         }
-        if (noise_px > 0.0) uv += Eigen::Vector2d(noise(rng), noise(rng));
+        if (noise_px > 0.0) uv += vilma::testing::DrawVector2([&] { return noise(rng); });
         mapstore::Keypoint kp;
         kp.uv = uv;
         f.keypoints.push_back(kp);

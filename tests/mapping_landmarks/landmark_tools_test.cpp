@@ -2,6 +2,7 @@
 #include <catch2/catch.hpp>
 
 #include "mapping_landmarks/geometric_map.h"
+#include "test_random.h"
 #include "vilma/mapping/landmarks/landmark_quality.h"
 #include "vilma/mapping/landmarks/retriangulation.h"
 #include "vilma/mapstore/consistency.h"
@@ -76,8 +77,8 @@ TEST_CASE("rtl restores perturbed landmarks from their observations, across miss
     std::mt19937_64 rng(5);
     std::normal_distribution<double> n(0.0, 0.2);
     for (const auto& id : g.landmarks) {
-      g.map.SetLandmarkPosition_M(id, g.map.LandmarkPosition_M(id) +
-                                          Eigen::Vector3d(n(rng), n(rng), n(rng)));
+      g.map.SetLandmarkPosition_M(
+          id, g.map.LandmarkPosition_M(id) + vilma::testing::DrawVector3([&] { return n(rng); }));
     }
     const RetriangulationSummary s = RetriangulateLandmarks(RetriangulationOptions{}, &g.map, {});
     CHECK(s.triangulated == g.landmarks.size());

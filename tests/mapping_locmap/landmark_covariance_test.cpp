@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <random>
 
+#include "test_random.h"
 #include "vilma/mapping/locmap/landmark_covariance.h"
 #include "vilma/mapping/locmap/localization_map_builder.h"
 
@@ -38,7 +39,9 @@ NoisyMap MakeNoisyMap(int vertices, int landmarks, double sigma_px, uint32_t see
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   for (int l = 0; l < landmarks; ++l) {
     const double z = 5.5 + 2.5 * u(rng);
-    out.truth_G.emplace_back(1.0 + 0.45 * z * u(rng), 0.35 * z * u(rng), z);
+    const double y = 0.35 * z * u(rng);  // y before x, as GCC drew them (tests/test_random.h)
+    const double x = 1.0 + 0.45 * z * u(rng);
+    out.truth_G.emplace_back(x, y, z);
   }
   std::vector<mapstore::VertexId> vertex_ids;
   for (int v = 0; v < vertices; ++v) {
@@ -53,7 +56,7 @@ NoisyMap MakeNoisyMap(int vertices, int landmarks, double sigma_px, uint32_t see
       const Eigen::Vector3d p_C = out.truth_G[l] - vertex.T_M_I.translation();
       cam.camera.Project(p_C, &uv);
       mapstore::Keypoint k;
-      k.uv = uv + Eigen::Vector2d(noise(rng), noise(rng));
+      k.uv = uv + vilma::testing::DrawVector2([&] { return noise(rng); });
       frame.keypoints.push_back(k);
       frame.descriptors.insert(frame.descriptors.end(), 64, static_cast<uint8_t>(l));
       frame.track_ids.push_back(l);

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "mapstore/synthetic_map.h"
+#include "test_random.h"
 #include "vilma/mapping/optimization/inertial_residual.h"
 #include "vilma/mapping/optimization/pose_manifold.h"
 #include "vilma/mapping/optimization/reprojection_residual.h"
@@ -64,8 +65,10 @@ void CheckJacobians(const ceres::CostFunction& cost, std::vector<std::vector<dou
 
 std::vector<double> Pose(std::mt19937_64& rng, double scale) {
   std::normal_distribution<double> n(0.0, 1.0);
-  const Transformation T(Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized(),
-                         Eigen::Vector3d(n(rng), n(rng), n(rng)) * scale);
+  const auto draw = [&] { return n(rng); };
+  // The translation first, then the rotation: the order GCC drew them in (tests/test_random.h).
+  const Eigen::Vector3d p = vilma::testing::DrawVector3(draw) * scale;
+  const Transformation T(vilma::testing::DrawQuaternion(draw).normalized(), p);
   std::vector<double> b(7);
   PoseToBlock(T, b.data());
   return b;
@@ -84,7 +87,11 @@ TEST_CASE("Reprojection Jacobians (pose, landmark, baseframe, extrinsics) match 
       // A landmark 3-6 m in front of the camera.
       const Transformation T_G_C =
           BlockToPose(T_G_M.data()) * BlockToPose(T_M_I.data()) * BlockToPose(T_I_C.data());
-      const Eigen::Vector3d p_C(0.5 * n(rng), 0.3 * n(rng), 4.0 + n(rng) * 0.5);
+      // z, y, x: the order GCC drew them in (tests/test_random.h).
+      const double z = 4.0 + n(rng) * 0.5;
+      const double y = 0.3 * n(rng);
+      const double x = 0.5 * n(rng);
+      const Eigen::Vector3d p_C(x, y, z);
       const Eigen::Vector3d p_G = T_G_C * p_C;
       const ReprojectionCostFunction cost(camera, Eigen::Vector2d(300, 200), 1.5);
       CheckJacobians(cost, {T_M_I, {p_G.x(), p_G.y(), p_G.z()}, T_G_M, T_I_C}, 1e-5);
@@ -116,8 +123,15 @@ TEST_CASE("Inertial Jacobians match differences, also for a long edge") {
     for (int k = 0; k < samples; ++k) {
       ImuSample s;
       s.t_ns = 1'000'000'000LL + k * 5'000'000LL;
-      s.omega_I = Eigen::Vector3d(0.3 + 0.1 * n(rng), -0.2 + 0.1 * n(rng), 0.1 * n(rng));
-      s.a_I = Eigen::Vector3d(0.5 * n(rng), 0.5 * n(rng), 9.81 + 0.5 * n(rng));
+      // Each vector z, y, x: the order GCC drew them in (tests/test_random.h).
+      const double omega_z = 0.1 * n(rng);
+      const double omega_y = -0.2 + 0.1 * n(rng);
+      const double omega_x = 0.3 + 0.1 * n(rng);
+      s.omega_I = Eigen::Vector3d(omega_x, omega_y, omega_z);
+      const double a_z = 9.81 + 0.5 * n(rng);
+      const double a_y = 0.5 * n(rng);
+      const double a_x = 0.5 * n(rng);
+      s.a_I = Eigen::Vector3d(a_x, a_y, a_z);
       imu.push_back(s);
     }
     const ImuPreintegration pre(imu, ImuNoise{}, Eigen::Vector3d(0.001, 0, -0.002),
@@ -176,11 +190,13 @@ TEST_CASE("Time-offset reprojection Jacobians (pose, speed/bias, landmark, basef
                               T_I_C = Pose(rng, 0.1);
     std::vector<double> speed_bias(9);
     for (int k = 0; k < 9; ++k) speed_bias[k] = (k < 3 ? 1.5 : k < 6 ? 0.05 : 0.1) * n(rng);
-    const Eigen::Vector3d omega_m(2.0 * n(rng), 2.0 * n(rng), 2.0 * n(rng));
+    const Eigen::Vector3d omega_m = vilma::testing::DrawVector3([&] { return 2.0 * n(rng); });
     const std::vector<double> delta = {0.02 * n(rng)};
     const Transformation T_G_C =
         BlockToPose(T_G_M.data()) * BlockToPose(T_M_I.data()) * BlockToPose(T_I_C.data());
-    const Eigen::Vector3d p_G = T_G_C * Eigen::Vector3d(0.4 * n(rng), 0.3 * n(rng), 3.0);
+    const double y = 0.3 * n(rng);  // y before x, as GCC drew them (tests/test_random.h)
+    const double x = 0.4 * n(rng);
+    const Eigen::Vector3d p_G = T_G_C * Eigen::Vector3d(x, y, 3.0);
     const TimeOffsetReprojectionCostFunction cost(&rig.cameras[0].camera,
                                                   Eigen::Vector2d(300, 200), 1.5, omega_m);
     CheckJacobians(cost, {T_M_I, speed_bias, {p_G.x(), p_G.y(), p_G.z()}, T_G_M, T_I_C, delta},

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "mapstore/synthetic_map.h"
+#include "test_random.h"
 #include "vilma/mapstore/vi_map.h"
 #include "vilma/sim/imu_sim.h"
 #include "vilma/sim/random.h"
@@ -89,12 +90,16 @@ inline SimulatedViMap MakeSimulatedViMap(double seconds = 4.0, double noise_px =
     const Transformation T_M_C = s.T_M_I_true[a] * T_I_C;
     for (int j = 0; j < 12; ++j) {
       Pending p;
-      p.p_M = T_M_C * (Eigen::Vector3d(u(gen) * 1.5, u(gen), 1.0) * (3.5 + 1.5 * u(gen)));
+      // The depth first, then y and x: the order GCC drew them in (tests/test_random.h).
+      const double depth = 3.5 + 1.5 * u(gen);
+      const double y = u(gen);
+      const double x = u(gen) * 1.5;
+      p.p_M = T_M_C * (Eigen::Vector3d(x, y, 1.0) * depth);
       for (std::size_t b = (a >= 10 ? a - 10 : 0); b < chain.size() && b <= a + 10; ++b) {
         Eigen::Vector2d uv;
         const Eigen::Vector3d p_C = (s.T_M_I_true[b] * T_I_C).inverse() * p.p_M;
         if (camera.Project(p_C, &uv) != Camera::ProjectionResult::kValid) continue;
-        if (noise_px > 0) uv += noise_px * Eigen::Vector2d(noise(gen), noise(gen));
+        if (noise_px > 0) uv += noise_px * vilma::testing::DrawVector2([&] { return noise(gen); });
         p.seen.emplace_back(b, uv);
       }
       if (p.seen.size() >= 4) pending.push_back(p);

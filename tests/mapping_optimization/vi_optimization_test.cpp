@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "mapping_optimization/simulated_vi_map.h"
+#include "test_random.h"
 #include "vilma/eval/evaluate.h"
 #include "vilma/mapping/optimization/vi_optimization.h"
 #include "vilma/mapstore/consistency.h"
@@ -37,17 +38,18 @@ double VertexRmse(const SimulatedViMap& s, AlignmentType type = AlignmentType::k
 void Perturb(SimulatedViMap* s, double meters, double degrees, uint64_t seed) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> n(0.0, 1.0);
+  const auto draw = [&] { return n(rng); };
   const auto m = s->map.mission_ids()[0];
   for (const auto& id : s->map.VertexChain(m)) {
     mapstore::Vertex& v = s->map.vertex(id);
-    const Eigen::Vector3d axis(n(rng), n(rng), n(rng));
+    const Eigen::Vector3d axis = vilma::testing::DrawVector3(draw);
     v.T_M_I = Transformation(
         v.T_M_I.rotation() * ExpSO3(axis.normalized() * degrees * M_PI / 180.0),
-        v.T_M_I.translation() + Eigen::Vector3d(n(rng), n(rng), n(rng)) * meters / std::sqrt(3.0));
-    v.v_M += Eigen::Vector3d(n(rng), n(rng), n(rng)) * 0.05;
+        v.T_M_I.translation() + vilma::testing::DrawVector3(draw) * meters / std::sqrt(3.0));
+    v.v_M += vilma::testing::DrawVector3(draw) * 0.05;
   }
   for (const auto& id : s->map.landmark_ids(m)) {
-    s->map.landmark(id).p_I += Eigen::Vector3d(n(rng), n(rng), n(rng)) * meters / std::sqrt(3.0);
+    s->map.landmark(id).p_I += vilma::testing::DrawVector3(draw) * meters / std::sqrt(3.0);
   }
 }
 

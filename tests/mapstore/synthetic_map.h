@@ -9,6 +9,7 @@
 #include <random>
 #include <string>
 
+#include "test_random.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma {
@@ -45,8 +46,10 @@ inline SensorRig TestRig() {
 
 inline Transformation RandomPose(std::mt19937_64& rng) {
   std::normal_distribution<double> n(0.0, 1.0);
-  return Transformation(Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)),
-                        Eigen::Vector3d(n(rng), n(rng), n(rng)) * 3.0);
+  const auto draw = [&] { return n(rng); };
+  // The translation first, then the rotation: the order GCC drew them in (tests/test_random.h).
+  const Eigen::Vector3d p = vilma::testing::DrawVector3(draw) * 3.0;
+  return Transformation(vilma::testing::DrawQuaternion(draw), p);
 }
 
 template <int R, int C>
@@ -92,7 +95,9 @@ inline VIMap MakeSyntheticMap(const SyntheticMapOptions& o) {
         const int k = c == 0 ? kp_per_frame + ((o.cross_mission && mi > 0) ? 1 : 0) : 5;
         for (int i = 0; i < k; ++i) {
           Keypoint kp;
-          kp.uv = Eigen::Vector2d(std::abs(n(rng)) * 300, std::abs(n(rng)) * 200);
+          const double y = std::abs(n(rng)) * 200;  // y before x, as GCC drew them
+          const double x = std::abs(n(rng)) * 300;
+          kp.uv = Eigen::Vector2d(x, y);
           kp.scale = 8.0 + n(rng);
           kp.orientation = n(rng);
           kp.score = std::abs(n(rng)) * 50;

@@ -19,6 +19,7 @@
 
 #include "vilma/core/error.h"
 #include "test_skip.h"
+#include "test_random.h"
 
 using namespace vilma;
 using namespace vilma::localizer;
@@ -170,7 +171,9 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
     for (int i = 0; i < kPerKeyframe; ++i) {
       const uint32_t l = static_cast<uint32_t>(map->p_G.size());
       Eigen::Vector3d bearing;
-      camera.Unproject(Eigen::Vector2d(20 + u(rng) * 712, 20 + u(rng) * 440), &bearing);
+      const double y = 20 + u(rng) * 440;  // y before x, as GCC drew them (tests/test_random.h)
+      const double x = 20 + u(rng) * 712;
+      camera.Unproject(Eigen::Vector2d(x, y), &bearing);
       const double depth = 4.0 + 26.0 * u(rng);  // [m]
       map->p_G.push_back(T_G_C * (bearing / bearing.z() * depth));
       map->landmark_ids.push_back(MapObjectId{2, uint64_t(l + 1)});
@@ -225,12 +228,14 @@ TEST_CASE("localizer: query time against a 50k-landmark map", "[.benchmark][loc5
           Camera::ProjectionResult::kValid) {
         continue;
       }
-      uv.push_back(px + 0.5 * Eigen::Vector2d(n(rng), n(rng)));
+      uv.push_back(px + 0.5 * vilma::testing::DrawVector2([&] { return n(rng); }));
       gen.Observe(latent[static_cast<std::size_t>(l)], d);
       descriptors.insert(descriptors.end(), d, d + kBytes);
     }
     while (uv.size() < 500) {
-      uv.emplace_back(u(rng) * 751, u(rng) * 479);
+      const double y = u(rng) * 479;  // y before x, as GCC drew them
+      const double x = u(rng) * 751;
+      uv.emplace_back(x, y);
       gen.Observe(gen.Latent(), d);
       descriptors.insert(descriptors.end(), d, d + kBytes);
     }
