@@ -12,6 +12,7 @@
 
 #include "mapstore/synthetic_map.h"  // RequireMapsEqual
 #include "vilma/mapstore/checksum.h"
+#include "vilma/mapstore/consistency.h"
 #include "vilma/mapstore/stream/mission_stream_sender.h"
 #include "vilma/mapstore/stream/synthetic_mission.h"
 
@@ -275,6 +276,59 @@ TEST_CASE("a mission whose sender is gone is finalized as incomplete and loads",
   CHECK_FALSE(loaded.mission(id).complete);
   deltas.resize(7);
   RequireMapsEqual(Expected(deltas, false), loaded);
+}
+
+TEST_CASE("a streamed keypoint that refers to a landmark the stream never sent is cleared, the map is consistent",
+          "[mapstore_stream]") {
+  // fuzz_mission_stream (2026-11-27): chunks with valid CRCs whose deltas give a keypoint a
+  // landmark id that no delta holds were finalized into a map that check_map_consistency
+  // rejected ("refers to missing landmark"). vilma-estimatord never streams such a reference.
+  SyntheticMissionOptions mo;
+  mo.vertices = 6;
+  mo.vertices_per_delta = 2;
+  mo.keypoints_per_frame = 10;
+  mo.landmarks_per_vertex = 3;
+  std::vector<MissionDelta> deltas = MakeSyntheticMissionDeltas(mo);
+  const MissionId id = deltas[0].mission.id;
+  REQUIRE_FALSE(deltas[0].vertices.empty());
+  VisualFrame& frame = deltas[0].vertices[0].frames.at(0);
+  // Two keypoints without a landmark (so that no landmark observes them).
+  std::vector<std::size_t> free_keypoints;
+  for (std::size_t k = 0; k < frame.landmark_ids.size(); ++k) {
+    if (!frame.landmark_ids[k].IsValid()) free_keypoints.push_back(k);
+  }
+  REQUIRE(free_keypoints.size() >= 2);
+  LandmarkId missing;
+  REQUIRE(LandmarkId::FromHex("00000000000000000200000000000000", &missing));
+  frame.landmark_ids[free_keypoints[0]] = missing;  // a landmark no delta holds
+  LandmarkId other;
+  for (const MissionDelta& d : deltas) {
+    if (!d.landmarks.empty()) other = d.landmarks[0].id;
+  }
+  REQUIRE(other.IsValid());
+  frame.landmark_ids[free_keypoints[1]] = other;  // a landmark that does not observe this keypoint
+
+  MapStoreServerOptions so;
+  so.root = FreshRoot("dangling");
+  std::vector<std::string> log;
+  MapStoreServer server(so, [](const vilma::mission_ack_t&) {}, [&](const std::string& line) { log.push_back(line); });
+  server.Start();
+  MissionStreamSender sender(id, mo.name, FastSender(), [&](const vilma::mission_chunk_t& c) { server.OnChunk(c); });
+  for (const MissionDelta& d : deltas) REQUIRE(sender.Send(d));
+  sender.End();
+  server.Flush();
+  REQUIRE(server.counters().missions_completed == 1);
+
+  const VIMap loaded = LoadMap(server.MissionFolder(id));
+  INFO(CheckMapConsistency(loaded).FullReport());
+  CHECK(CheckMapConsistency(loaded).ok());
+  // Only the two references are gone; everything else is what was streamed.
+  deltas[0].vertices[0].frames[0].landmark_ids[free_keypoints[0]] = LandmarkId();
+  deltas[0].vertices[0].frames[0].landmark_ids[free_keypoints[1]] = LandmarkId();
+  RequireMapsEqual(Expected(deltas, true), loaded);
+  bool logged = false;
+  for (const std::string& line : log) logged |= line.find("2 keypoint reference(s)") != std::string::npos;
+  CHECK(logged);
 }
 
 TEST_CASE("keepalives keep a silent sender's mission open, they never journal or open a mission",

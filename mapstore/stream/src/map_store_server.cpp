@@ -448,6 +448,37 @@ namespace {
 // A failed finalization (disk full, I/O) is retried this often [s]: each attempt replays the
 // whole journal, so not in a tight loop.
 constexpr int kFinalizeRetryS = 5;
+
+// Clears every keypoint -> landmark reference (VisualFrame::landmark_ids) whose landmark the
+// map does not hold or does not list the keypoint among its observations; returns how many.
+std::size_t ClearDanglingLandmarkReferences(VIMap* map) {
+  std::size_t cleared = 0;
+  for (const MissionId& mission_id : map->mission_ids()) {
+    for (const VertexId& vertex_id : map->vertex_ids(mission_id)) {
+      Vertex& v = map->vertex(vertex_id);
+      for (std::size_t c = 0; c < v.frames.size(); ++c) {
+        std::vector<LandmarkId>& ids = v.frames[c].landmark_ids;
+        for (std::size_t k = 0; k < ids.size(); ++k) {
+          if (!ids[k].IsValid()) continue;
+          bool observed = false;
+          if (map->HasLandmark(ids[k])) {
+            for (const LandmarkObservation& o : map->landmark(ids[k]).observations) {
+              if (o.vertex_id == vertex_id && o.camera == c && o.keypoint == k) {
+                observed = true;
+                break;
+              }
+            }
+          }
+          if (!observed) {
+            ids[k] = LandmarkId();
+            ++cleared;
+          }
+        }
+      }
+    }
+  }
+  return cleared;
+}
 }  // namespace
 
 bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
@@ -474,6 +505,17 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
       map.AddMission(mission);
     }
     map.mission(id).complete = complete;
+    // A keypoint whose landmark the stream never sent, or whose landmark lists no observation
+    // back to it, would make a map that check_map_consistency rejects (fuzz_mission_stream,
+    // 2026-11-27: a chunk with a valid CRC and a changed landmark id). vilma-estimatord never
+    // streams such a reference; from any other sender the reference is dropped (the keypoint
+    // stays, without a landmark) and the count logged.
+    const std::size_t cleared = ClearDanglingLandmarkReferences(&map);
+    if (cleared > 0) {
+      log_("mission " + m.hex + ": " + std::to_string(cleared) +
+           " keypoint reference(s) to landmarks the stream did not hold (or that do not observe "
+           "the keypoint) cleared");
+    }
     // The folder appears whole or not at all: saved into a staging folder beside the journals
     // (same file system), then renamed into place. A kill -9 during SaveMap left a
     // manifest-less folder under the mission's name before (crash campaign, daemon run 55):
