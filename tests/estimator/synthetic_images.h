@@ -25,7 +25,10 @@ class SmoothTexture {
     state_ = seed;
     for (int i = 0; i < num_blobs; ++i) {
       Blob b;
-      b.c = Eigen::Vector2d(Uniform(-0.2 * width, 1.2 * width), Uniform(-0.2 * height, 1.2 * height));
+      // y before x: GCC's order of the former one-call form (docs/testing.md "Random test data").
+      const double c_y = Uniform(-0.2 * height, 1.2 * height);
+      const double c_x = Uniform(-0.2 * width, 1.2 * width);
+      b.c = Eigen::Vector2d(c_x, c_y);
       b.sigma = Uniform(min_sigma, max_sigma);
       b.amplitude = (i % 2 == 0 ? 1.0 : -1.0) * Uniform(min_amplitude, max_amplitude);
       blobs_.push_back(b);
