@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Visual-inertial batch optimization benchmark (docs/optimization.md, docs/benchmarks.md
-# "Optimization"). Four tables:
+# "Optimization"). Five tables:
 #   1. simulated: the daemon's VI-map of each set (vilma-estimatord --input-log --save-map: the
 #      VIO's poses, no ground truth used), then `optvi` with its defaults, and `lc; rtl; optvi`
 #      (loop closure merges re-observed landmarks first); `eval_map` before and
@@ -44,6 +44,16 @@ datasets=${VILMA_DATASETS:-$cache/datasets}
 work=${BENCH_WORK:-$cache/bench-optvi}
 shared=${VILMA_SHARED_DATA:-$repo_dir/../shared/data}
 bin=$build_dir/bin
+case "${1:-}" in
+  -h|--help) sed -n '2,37p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -*) echo "bench-optvi: unknown option '$1' (see --help)" >&2; exit 2 ;;
+esac
+# The sets scripts/make-datasets.sh knows.
+valid_sets=" $(bash "$(dirname "$0")/make-datasets.sh" --list | awk '{print $1}' | tr '\n' ' ')"
+for set_name in "$@"; do
+  [[ "$valid_sets" == *" $set_name "* ]] ||
+    { echo "bench-optvi: unknown set '$set_name' (expected one of:$valid_sets)" >&2; exit 2; }
+done
 sets=("$@")
 [ ${#sets[@]} -eq 0 ] && sets=(room-easy hall street)
 for exe in vilma vilma-estimatord vilma-replay vilma-sim; do
