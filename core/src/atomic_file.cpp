@@ -96,11 +96,7 @@ WriteResult RenameIntoPlace(const char* tmp, const std::string& path, const std:
   }
   // Make the rename itself durable. The file is in place now; a folder that cannot be synced
   // (some file systems refuse fsync on a directory) does not undo that.
-  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
-  if (dir_fd >= 0) {
-    ::fsync(dir_fd);
-    ::close(dir_fd);
-  }
+  SyncDirectory(dir);
   return {};
 }
 
@@ -157,6 +153,36 @@ WriteResult CommitAtomically(const std::string& partial_path, const std::string&
 }
 
 }  // namespace
+
+void SyncDirectory(const std::string& dir) {
+  const int dir_fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
+  if (dir_fd >= 0) {
+    ::fsync(dir_fd);
+    ::close(dir_fd);
+  }
+}
+
+void CreateDirectoriesDurably(const std::string& dir) {
+  // The folders to create, deepest first: `dir` and its missing parents.
+  std::vector<fs::path> missing;
+  std::error_code ec;
+  for (fs::path p = fs::path(dir).lexically_normal(); !p.empty() && !fs::exists(p, ec);
+       p = p.parent_path()) {
+    missing.push_back(p);
+    if (p == p.parent_path()) break;
+  }
+  fs::create_directories(dir, ec);
+  if (ec || !fs::is_directory(dir)) {
+    throw InputError(FormatInputError(
+        dir, "", "expected a folder that can be created (" +
+                     (ec ? ec.message() : std::string("exists and is not a folder")) + ")"));
+  }
+  // Parents first, so each synced entry lies in an already durable folder.
+  for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
+    const fs::path parent = it->has_parent_path() ? it->parent_path() : fs::path(".");
+    SyncDirectory(parent.empty() ? "." : parent.string());
+  }
+}
 
 void WriteFileAtomically(const std::string& path, const std::string& content) {
   const WriteResult r = WriteAtomically(path, content);

@@ -11,6 +11,7 @@
 #include "proto_conversion.h"
 #include "vi_map.pb.h"
 #include "vilma/core/asl_dataset.h"
+#include "vilma/core/atomic_file.h"
 #include "vilma/core/error.h"
 #include "vilma/core/yaml_io.h"
 #include "vilma/mapstore/checksum.h"
@@ -241,11 +242,9 @@ std::vector<FileEntry> WriteChunks(Writer* writer, const std::string& dir, const
   return files;
 }
 
-void CreateDirectories(const fs::path& dir) {
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw InputError(FormatInputError(dir.string(), "", "expected a writable folder (" + ec.message() + ")"));
-}
+// Durably (each new folder's parent synced): the generation and mission folders of a save
+// must survive a power loss together with the files fsynced in them.
+void CreateDirectories(const fs::path& dir) { CreateDirectoriesDurably(dir.string()); }
 
 // ---------------------------------------------------------------- loading
 

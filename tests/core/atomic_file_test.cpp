@@ -198,5 +198,33 @@ TEST_CASE("WriteFileAtomically: concurrent writers of one file never leave a mix
   CHECK(Names(dir.path()) == std::vector<std::string>{"shared.txt"});
 }
 
+TEST_CASE("CreateDirectoriesDurably creates missing parents, accepts an existing folder, names "
+          "a path it cannot create",
+          "[atomic_file]") {
+  testing::TempDir dir;
+  const std::string nested = dir.File("a/b/c");
+  CreateDirectoriesDurably(nested);
+  CHECK(std::filesystem::is_directory(nested));
+  CreateDirectoriesDurably(nested);  // already there: nothing to do, no error
+  CHECK(Names(dir.path()) == std::vector<std::string>{"a"});
+  // A relative path (its first parent is the working folder).
+  const std::filesystem::path cwd = std::filesystem::current_path();
+  std::filesystem::current_path(dir.path());
+  CreateDirectoriesDurably("relative/x");
+  std::filesystem::current_path(cwd);
+  CHECK(std::filesystem::is_directory(dir.File("relative/x")));
+
+  WriteFileAtomically(dir.File("file"), "x");
+  for (const std::string& bad : {dir.File("file"), dir.File("file/below")}) {
+    try {
+      CreateDirectoriesDurably(bad);
+      FAIL("no error for " << bad);
+    } catch (const InputError& e) {
+      CHECK_THAT(e.what(), Catch::Contains(bad) && Catch::Contains("expected a folder"));
+    }
+  }
+  SyncDirectory(dir.File("missing"));  // best effort: a folder that is not there is no error
+}
+
 }  // namespace
 }  // namespace vilma

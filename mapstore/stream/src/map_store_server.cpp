@@ -40,13 +40,6 @@ void MakeDir(const std::string& path) {
   if (!IsDir(path)) throw InputError(FormatInputError(path, "", "a directory"));
 }
 
-void SyncDir(const std::string& dir) {
-  const int fd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY);
-  if (fd >= 0) {
-    ::fsync(fd);
-    ::close(fd);
-  }
-}
 
 std::vector<std::string> ListDir(const std::string& dir) {
   std::vector<std::string> names;
@@ -529,8 +522,8 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
       throw std::runtime_error("cannot move " + staging + " to " + options_.root + "/" + folder +
                                ": " + std::strerror(errno));
     }
-    SyncDir(options_.root);
-    SyncDir(JournalDir());
+    SyncDirectory(options_.root);
+    SyncDirectory(JournalDir());
   } catch (const std::exception& e) {
     ++counters_.finalize_errors;
     const bool full = std::strstr(e.what(), std::strerror(ENOSPC)) != nullptr;
@@ -571,7 +564,7 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
   const int64_t session = m.session_id;
   missions_.erase(it);  // closes the journal
   ::unlink(journal_path.c_str());
-  SyncDir(JournalDir());
+  SyncDirectory(JournalDir());
   ++(complete ? counters_.missions_completed : counters_.missions_incomplete);
   const std::string where = options_.root + "/" + folder;
   log_(std::string(complete ? "mission complete: " : "mission finalized as incomplete: ") + hex +

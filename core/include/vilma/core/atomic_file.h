@@ -28,4 +28,15 @@ void CommitFileAtomically(const std::string& partial_path, const std::string& pa
 // wording of the error).
 int TryCommitFileAtomically(const std::string& partial_path, const std::string& path);
 
+// fsync of a folder, so that the entries created, renamed or removed in it survive a power
+// loss. Best effort: a folder that cannot be opened or synced (some file systems refuse fsync
+// on a directory) is left as it is.
+void SyncDirectory(const std::string& dir);
+
+// Creates `dir` and its missing parents durably: after each folder is created its parent is
+// synced, so that a power loss never leaves durable files in a folder that is not reachable
+// (fsync of a file does not make its folder's own entry durable). Throws InputError naming the
+// folder when it cannot be created or exists as something else.
+void CreateDirectoriesDurably(const std::string& dir);
+
 }  // namespace vilma
