@@ -55,12 +55,17 @@ WriteResult WriteThrough(const std::string& path, const std::string& content) {
   return r;
 }
 
+// The temporary name of a write of `target` is this prefix and mkstemp's 6 characters.
+std::string TemporaryPrefix(const fs::path& target) {
+  return "." + target.filename().string() + ".";
+}
+
 WriteResult WriteAtomically(const std::string& path, const std::string& content) {
   if (IsSpecialFile(path)) return WriteThrough(path, content);
   const fs::path target(path);
   const std::string dir = FolderOf(path);
   // mkstemp gives a name no other writer (thread or process) uses at the same time.
-  std::string tmp_template = dir + "/." + target.filename().string() + ".XXXXXX";
+  std::string tmp_template = dir + "/" + TemporaryPrefix(target) + "XXXXXX";
   std::vector<char> tmp(tmp_template.begin(), tmp_template.end());
   tmp.push_back('\0');
   const int fd = ::mkostemp(tmp.data(), O_CLOEXEC);
@@ -179,9 +184,23 @@ void CreateDirectoriesDurably(const std::string& dir) {
   }
   // Parents first, so each synced entry lies in an already durable folder.
   for (auto it = missing.rbegin(); it != missing.rend(); ++it) {
-    const fs::path parent = it->has_parent_path() ? it->parent_path() : fs::path(".");
+    const fs::path parent = it->parent_path();
     SyncDirectory(parent.empty() ? "." : parent.string());
   }
+}
+
+int RemoveLeftoverTemporaryFiles(const std::string& path) {
+  const std::string prefix = TemporaryPrefix(fs::path(path));
+  int removed = 0;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(FolderOf(path), ec)) {
+    const std::string name = entry.path().filename().string();
+    if (name.size() == prefix.size() + 6 && name.compare(0, prefix.size(), prefix) == 0 &&
+        entry.is_regular_file(ec) && fs::remove(entry.path(), ec)) {
+      ++removed;
+    }
+  }
+  return removed;
 }
 
 void WriteFileAtomically(const std::string& path, const std::string& content) {

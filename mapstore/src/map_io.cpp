@@ -242,10 +242,6 @@ std::vector<FileEntry> WriteChunks(Writer* writer, const std::string& dir, const
   return files;
 }
 
-// Durably (each new folder's parent synced): the generation and mission folders of a save
-// must survive a power loss together with the files fsynced in them.
-void CreateDirectories(const fs::path& dir) { CreateDirectoriesDurably(dir.string()); }
-
 // ---------------------------------------------------------------- loading
 
 // Reads a data file listed in the manifest and checks its size and checksum.
@@ -321,7 +317,9 @@ MapSaveSummary SaveMap(const VIMap& map, const std::string& folder,
   const std::string problem = options.Validate();
   if (!problem.empty()) throw std::invalid_argument("MapSaveOptions: " + problem);
   const fs::path root(folder);
-  CreateDirectories(root);
+  // Durably (each new folder's parent synced): the map, mission and generation folders must
+  // survive a power loss together with the files fsynced in them.
+  CreateDirectoriesDurably(root.string());
   const std::string manifest_path = (root / kManifestName).string();
 
   // The new generation follows the one the current manifest lists; a generation folder left
@@ -359,7 +357,7 @@ MapSaveSummary SaveMap(const VIMap& map, const std::string& folder,
     const std::string dir = "missions/" + mission_id.Hex() + "/" + generation_dir;
     std::error_code ec;
     fs::remove_all(root / dir, ec);
-    CreateDirectories(root / dir);
+    CreateDirectoriesDurably((root / dir).string());
 
     pb::MissionFile mission_file;
     mission_file.set_format_version(kMapFormatVersion);
@@ -404,7 +402,7 @@ MapSaveSummary SaveMap(const VIMap& map, const std::string& folder,
     } else {
       bytes = resources.Load(info.type, info.id);
     }
-    CreateDirectories(target.parent_path());
+    CreateDirectoriesDurably(target.parent_path().string());
     writer.WriteBytes(info.RelativePath(), *bytes);
     manifest.resources.push_back(info);
   }
@@ -428,18 +426,9 @@ MapSaveSummary SaveMap(const VIMap& map, const std::string& folder,
       if (gen.path().filename().string() != generation_dir) fs::remove_all(gen.path(), ec);
     }
   }
-  // A save killed between the temporary manifest's creation and its rename left it behind
-  // (".manifest.yaml.XXXXXX", WriteFileAtomically's mkstemp name): nothing else removes it
-  // (12 of 200 kills of scripts/crash-campaign.sh, 2026-11-27).
-  const std::string temporary_manifest = std::string(".") + kManifestName + ".";
-  for (const auto& entry : fs::directory_iterator(root, ec)) {
-    const std::string name = entry.path().filename().string();
-    if (name.size() == temporary_manifest.size() + 6 &&
-        name.compare(0, temporary_manifest.size(), temporary_manifest) == 0 &&
-        entry.is_regular_file(ec)) {
-      fs::remove(entry.path(), ec);
-    }
-  }
+  // A save killed between the temporary manifest's creation and its rename left it behind:
+  // nothing else removes it (12 of 200 kills of scripts/crash-campaign.sh, 2026-11-27).
+  RemoveLeftoverTemporaryFiles(manifest_path);
   return summary;
 }
 

@@ -226,5 +226,27 @@ TEST_CASE("CreateDirectoriesDurably creates missing parents, accepts an existing
   SyncDirectory(dir.File("missing"));  // best effort: a folder that is not there is no error
 }
 
+TEST_CASE("RemoveLeftoverTemporaryFiles removes only the temporary names of writes of its path",
+          "[atomic_file]") {
+  testing::TempDir dir;
+  const std::string target = dir.File("manifest.yaml");
+  WriteFileAtomically(target, "kept");
+  // What a write killed before its rename leaves (".<name>." + mkstemp's 6 characters), and
+  // names that only look alike.
+  for (const char* name : {".manifest.yaml.a1B2c3", ".manifest.yaml.zzzzzz", ".manifest.yaml.short",
+                           ".manifest.yaml.toolong7", ".other.yaml.a1B2c3", "manifest.yaml.a1B2c3"}) {
+    std::ofstream(dir.File(name)) << "x";
+  }
+  fs::create_directories(dir.File(".manifest.yaml.folder"));  // not a regular file: kept
+  CHECK(RemoveLeftoverTemporaryFiles(target) == 2);
+  std::vector<std::string> names = Names(dir.path());
+  std::sort(names.begin(), names.end());
+  CHECK(names == std::vector<std::string>{".manifest.yaml.folder", ".manifest.yaml.short",
+                                          ".manifest.yaml.toolong7", ".other.yaml.a1B2c3",
+                                          "manifest.yaml", "manifest.yaml.a1B2c3"});
+  CHECK(ReadAll(target) == "kept");
+  CHECK(RemoveLeftoverTemporaryFiles(dir.File("missing/x.yaml")) == 0);  // no folder: nothing
+}
+
 }  // namespace
 }  // namespace vilma

@@ -257,17 +257,16 @@ std::vector<StereoMatch> MatchStereo(const KeyframeFeatures& left, const Keyfram
     }
     if (best < 0 || best_h > options.max_hamming_distance) continue;
     if (second_h <= 512 && !(best_h < options.ratio * second_h)) continue;
-    // Rectified stereo: Z = fx b / d, X = (u - cx) Z / fx, Y = (v - cy) Z / fy, with the row
-    // of the left keypoint (the right one differs by at most max_row_difference_px).
+    // Rectified stereo (StereoPoint_C), with the row of the left keypoint (the right one
+    // differs by at most max_row_difference_px).
     const double d = pl.x - right.keypoints[static_cast<std::size_t>(best)].pt.x;
-    const double Z = fb / d;
-    if (Z > options.max_depth_m) continue;
+    if (fb / d > options.max_depth_m) continue;
     StereoMatch m;
     m.left = i;
     m.right = best;
     m.hamming = best_h;
-    m.p_C = Eigen::Vector3d((pl.x - camera.cx()) * Z / camera.fx(),
-                            (pl.y - camera.cy()) * Z / camera.fy(), Z);
+    m.disparity_px = d;
+    m.p_C = StereoPoint_C(camera, baseline_m, Eigen::Vector2d(pl.x, pl.y), d);
     out.push_back(m);
   }
   return out;
@@ -329,21 +328,19 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocaliza
         MatchStereo(left, right, seq.camera, seq.baseline_m, options.stereo);
     // Disparity of each match: the keypoints' (whole pixels at the detector's level 0), or
     // refined by patch alignment at the left keypoint.
-    std::vector<double> disparity(stereo.size());
-    for (std::size_t s = 0; s < stereo.size(); ++s) {
-      StereoMatch& m = stereo[s];
-      const cv::Point2f& pl = left.keypoints[static_cast<std::size_t>(m.left)].pt;
-      const Eigen::Vector2d uv_left(pl.x, pl.y);
-      disparity[s] = pl.x - right.keypoints[static_cast<std::size_t>(m.right)].pt.x;
-      if (!options.refine_disparity) continue;
-      const DisparityRefinement r =
-          RefineDisparity(left_image, right_image, uv_left, disparity[s], options.disparity);
-      if (r.ok() && r.disparity_px >= options.stereo.min_disparity_px) {
-        disparity[s] = r.disparity_px;
-        m.p_C = StereoPoint_C(seq.camera, seq.baseline_m, uv_left, r.disparity_px);
-        ++refined;
-      } else {
-        ++unrefined;
+    if (options.refine_disparity) {
+      for (StereoMatch& m : stereo) {
+        const cv::Point2f& pl = left.keypoints[static_cast<std::size_t>(m.left)].pt;
+        const Eigen::Vector2d uv_left(pl.x, pl.y);
+        const DisparityRefinement r =
+            RefineDisparity(left_image, right_image, uv_left, m.disparity_px, options.disparity);
+        if (r.ok() && r.disparity_px >= options.stereo.min_disparity_px) {
+          m.disparity_px = r.disparity_px;
+          m.p_C = StereoPoint_C(seq.camera, seq.baseline_m, uv_left, r.disparity_px);
+          ++refined;
+        } else {
+          ++unrefined;
+        }
       }
     }
     const Transformation& T_W_C = seq.T_W_C[k];
@@ -368,10 +365,9 @@ mapstore::VIMap BuildKittiFrameMap(const KittiSequence& seq, const KittiLocaliza
     std::vector<bool> taken(previous.size(), false);
     std::vector<Tracked> current;
     const int bytes = left.descriptors.cols;
-    for (std::size_t s = 0; s < stereo.size(); ++s) {
-      const StereoMatch& m = stereo[s];
+    for (const StereoMatch& m : stereo) {
       const cv::Point2f& pt = left.keypoints[static_cast<std::size_t>(m.left)].pt;
-      const StereoObservation view{T_W_C, Eigen::Vector2d(pt.x, pt.y), disparity[s]};
+      const StereoObservation view{T_W_C, Eigen::Vector2d(pt.x, pt.y), m.disparity_px};
       const uint8_t* d = left.descriptors.ptr<uint8_t>(m.left);
       int best = -1, best_h = options.merge_max_hamming_distance + 1;
       for (std::size_t p = 0; p < previous.size(); ++p) {

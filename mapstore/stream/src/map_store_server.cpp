@@ -40,7 +40,6 @@ void MakeDir(const std::string& path) {
   if (!IsDir(path)) throw InputError(FormatInputError(path, "", "a directory"));
 }
 
-
 std::vector<std::string> ListDir(const std::string& dir) {
   std::vector<std::string> names;
   if (DIR* d = ::opendir(dir.c_str())) {

@@ -54,6 +54,7 @@ TEST_CASE("kitti localization: stereo matching triangulates a synthetic rectifie
   CHECK(m[0].left == 0);
   CHECK(m[0].right == 0);
   CHECK(m[0].hamming == 0);
+  CHECK(m[0].disparity_px == 20.0);
   CHECK(m[0].p_C.z() == Approx(700.0 * 0.5 / 20.0));
   CHECK(m[0].p_C.x() == Approx((700.0 - 600.0) * m[0].p_C.z() / 700.0));
   CHECK(m[0].p_C.y() == Approx((200.0 - 180.0) * m[0].p_C.z() / 700.0));

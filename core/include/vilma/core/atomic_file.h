@@ -39,4 +39,9 @@ void SyncDirectory(const std::string& dir);
 // folder when it cannot be created or exists as something else.
 void CreateDirectoriesDurably(const std::string& dir);
 
+// Removes the temporary files that writes of `path` (WriteFileAtomically) left in its folder
+// when they were killed before their rename (".<name>.XXXXXX"); returns how many. Only for a
+// caller that knows no other writer of `path` is running (e.g. after its own write of `path`).
+int RemoveLeftoverTemporaryFiles(const std::string& path);
+
 }  // namespace vilma

@@ -65,6 +65,7 @@ struct StereoMatch {
   int left = 0;   // keypoint index in the left features
   int right = 0;  // keypoint index in the right features
   int hamming = 0;
+  double disparity_px = 0.0;  // u_left - u_right (StereoPoint_C of the left keypoint)
   Eigen::Vector3d p_C = Eigen::Vector3d::Zero();  // in the left camera [m]
 };
 
