@@ -18,6 +18,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
 #include "vilma/mapstore/checksum.h"
+#include "vilma/mapstore/mission_repair.h"
 
 namespace vilma {
 namespace mapstore {
@@ -441,36 +442,6 @@ namespace {
 // whole journal, so not in a tight loop.
 constexpr int kFinalizeRetryS = 5;
 
-// Clears every keypoint -> landmark reference (VisualFrame::landmark_ids) whose landmark the
-// map does not hold or does not list the keypoint among its observations; returns how many.
-std::size_t ClearDanglingLandmarkReferences(VIMap* map) {
-  std::size_t cleared = 0;
-  for (const MissionId& mission_id : map->mission_ids()) {
-    for (const VertexId& vertex_id : map->vertex_ids(mission_id)) {
-      Vertex& v = map->vertex(vertex_id);
-      for (std::size_t c = 0; c < v.frames.size(); ++c) {
-        std::vector<LandmarkId>& ids = v.frames[c].landmark_ids;
-        for (std::size_t k = 0; k < ids.size(); ++k) {
-          if (!ids[k].IsValid()) continue;
-          bool observed = false;
-          if (map->HasLandmark(ids[k])) {
-            for (const LandmarkObservation& o : map->landmark(ids[k]).observations) {
-              if (o.vertex_id == vertex_id && o.camera == c && o.keypoint == k) {
-                observed = true;
-                break;
-              }
-            }
-          }
-          if (!observed) {
-            ids[k] = LandmarkId();
-            ++cleared;
-          }
-        }
-      }
-    }
-  }
-  return cleared;
-}
 }  // namespace
 
 bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
@@ -483,30 +454,37 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
   try {
     JournalRecovery recovery;
     const std::vector<JournalRecord> records = MissionJournal::Read(journal_path, &recovery);
+    // Deltas from any sender: every element that can be kept is kept, the rest counted
+    // (mapstore/mission_repair.h). A record that is not a delta is skipped: retrying cannot
+    // change its bytes, and failing the finalization for it would lose the whole mission.
     VIMap map;
+    Mission header;
+    header.id = id;
+    header.name = m.name;  // the first delta's header replaces it
+    map.AddMission(header);
+    MissionRepairReport repairs;
     for (const JournalRecord& r : records) {
       if (r.type == JournalRecordType::kHeader) continue;
       last_seq = r.seq;
       if (r.payload.empty()) continue;
-      ApplyMissionDelta(ParseMissionDelta(r.payload, journal_path + ": seq " + std::to_string(r.seq)), &map);
-    }
-    if (!map.HasMission(id)) {  // no delta arrived: an empty mission still gets its folder
-      Mission mission;
-      mission.id = id;
-      mission.name = m.name;
-      map.AddMission(mission);
+      const std::string source = journal_path + ": seq " + std::to_string(r.seq);
+      MissionDelta delta;
+      try {
+        delta = ParseMissionDelta(r.payload, source);
+      } catch (const InputError& e) {
+        ++repairs.deltas_unreadable;
+        repairs.Note(e.what());
+        continue;
+      }
+      ApplyStreamedDelta(delta, id, &map, &repairs);
     }
     map.mission(id).complete = complete;
-    // A keypoint whose landmark the stream never sent, or whose landmark lists no observation
-    // back to it, would make a map that check_map_consistency rejects (fuzz_mission_stream,
-    // 2026-11-27: a chunk with a valid CRC and a changed landmark id). vilma-estimatord never
-    // streams such a reference; from any other sender the reference is dropped (the keypoint
-    // stays, without a landmark) and the count logged.
-    const std::size_t cleared = ClearDanglingLandmarkReferences(&map);
-    if (cleared > 0) {
-      log_("mission " + m.hex + ": " + std::to_string(cleared) +
-           " keypoint reference(s) to landmarks the stream did not hold (or that do not observe "
-           "the keypoint) cleared");
+    RepairStreamedMission(id, &map, &repairs);
+    if (repairs.Total() > 0) {
+      std::string examples;
+      for (std::size_t i = 0; i < repairs.examples.size() && i < 3; ++i) examples += "; " + repairs.examples[i];
+      log_("mission " + m.hex + ": the stream needed repairs: " + repairs.Summary() + examples);
+      counters_.stream_repairs += repairs.Total();
     }
     // The folder appears whole or not at all: saved into a staging folder beside the journals
     // (same file system), then renamed into place. A kill -9 during SaveMap left a

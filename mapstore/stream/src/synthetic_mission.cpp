@@ -109,7 +109,9 @@ std::vector<MissionDelta> MakeSyntheticMissionDeltas(const SyntheticMissionOptio
       for (int s = 0; s <= o.imu_samples_per_edge; ++s) {
         if (o.imu_samples_per_edge == 0) break;
         ImuSample sample;
-        sample.t_ns = t_ns - kVertexPeriodNs + s * (kVertexPeriodNs / o.imu_samples_per_edge);
+        // (s * period) / n, not s * (period / n): the last sample must fall on the vertex
+        // time for any n (with n = 3 it ended 1 ns early, an edge check_map_consistency rejects).
+        sample.t_ns = t_ns - kVertexPeriodNs + (s * kVertexPeriodNs) / o.imu_samples_per_edge;
         sample.omega_I = 0.1 * DrawVector3(n, rng);
         sample.a_I = DrawVector3(n, rng) + Eigen::Vector3d(0.0, 0.0, 9.81);
         e.imu_samples.push_back(sample);

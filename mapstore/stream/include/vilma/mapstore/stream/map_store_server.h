@@ -71,6 +71,8 @@ struct MapStoreServerCounters {
   uint64_t missions_incomplete = 0;
   uint64_t missions_recovered = 0;
   uint64_t finalize_errors = 0;
+  uint64_t stream_repairs = 0;  // elements refused or references dropped while finalizing a
+                                // stream not from vilma-estimatord (mapstore/mission_repair.h)
 
   // Every counter with its name (the names of mapstored's status_t counters), in this order.
   template <typename Visitor>
@@ -91,6 +93,7 @@ struct MapStoreServerCounters {
     v("disk_full_errors", disk_full_errors);
     v("io_errors", io_errors);
     v("finalize_errors", finalize_errors);
+    v("stream_repairs", stream_repairs);
   }
   // "N chunks received, J journaled, D duplicate, O out of order, F fsyncs, A acks"
   std::string BriefReport() const;
