@@ -7,6 +7,9 @@
 #include <catch2/catch.hpp>
 #include <unistd.h>
 
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <functional>
 #include <string>
@@ -277,4 +280,45 @@ TEST_CASE("mapstored finalizes a forged stream into a consistent map: unreadable
   }
   CHECK(logged);
   REQUIRE(std::system(("rm -rf '" + dir + "'").c_str()) == 0);
+}
+
+// What the repair costs a consistent mission at finalization (docs/mapstore.md): applying the
+// deltas as before (ApplyMissionDelta) against ApplyStreamedDelta + RepairStreamedMission, on
+// the mission of the stream benchmark (2,000 vertices, 100 keypoints each, 20,000 landmarks).
+// Run: build/bin/vilma_mapstore_stream_tests "mission repair benchmark*"
+TEST_CASE("mission repair benchmark: the cost for a consistent mission", "[.benchmark][mapstore_stream]") {
+  using Clock = std::chrono::steady_clock;
+  SyntheticMissionOptions mo;
+  mo.vertices = 2000;
+  mo.keypoints_per_frame = 100;
+  mo.landmarks_per_vertex = 10;
+  const std::vector<MissionDelta> deltas = MakeSyntheticMissionDeltas(mo);
+  const MissionId id = deltas[0].mission.id;
+  std::vector<double> plain_s, streamed_s, repair_s;
+  for (int round = 0; round < 5; ++round) {
+    const auto t0 = Clock::now();
+    VIMap plain;
+    for (const MissionDelta& d : deltas) ApplyMissionDelta(d, &plain);
+    const auto t1 = Clock::now();
+    VIMap streamed;
+    Mission header;
+    header.id = id;
+    streamed.AddMission(header);
+    MissionRepairReport report;
+    for (const MissionDelta& d : deltas) ApplyStreamedDelta(d, id, &streamed, &report);
+    const auto t2 = Clock::now();
+    RepairStreamedMission(id, &streamed, &report);
+    const auto t3 = Clock::now();
+    REQUIRE(report.Total() == 0);
+    plain_s.push_back(std::chrono::duration<double>(t1 - t0).count());
+    streamed_s.push_back(std::chrono::duration<double>(t2 - t1).count());
+    repair_s.push_back(std::chrono::duration<double>(t3 - t2).count());
+  }
+  const auto median = [](std::vector<double> v) {
+    std::sort(v.begin(), v.end());
+    return v[v.size() / 2];
+  };
+  std::printf("2000 vertices, median of 5: ApplyMissionDelta %.3f s | ApplyStreamedDelta %.3f s + "
+              "RepairStreamedMission %.3f s\n",
+              median(plain_s), median(streamed_s), median(repair_s));
 }
