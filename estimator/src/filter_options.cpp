@@ -99,6 +99,8 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("stereo", "match_pixel_sigma", o.stereo.match_pixel_sigma);
   v("stereo", "min_inverse_depth_sigma", o.stereo.min_inverse_depth_sigma);
   v("stereo", "min_uniqueness_ratio", o.stereo.min_uniqueness_ratio);
+  v("stereo", "joint_update", o.stereo.joint_update);
+  v("stereo", "model_error_correlation", o.stereo.model_error_correlation);
 }
 
 }  // namespace
@@ -219,6 +221,9 @@ std::string StereoOptions::Validate() const {
   if (!(min_uniqueness_ratio == 0.0 ||
         (std::isfinite(min_uniqueness_ratio) && min_uniqueness_ratio >= 1.0))) {
     return "min_uniqueness_ratio: expected 0 (off) or a ratio >= 1";
+  }
+  if (!(model_error_correlation >= 0.0 && model_error_correlation <= 1.0)) {
+    return "model_error_correlation: expected a value in [0, 1]";
   }
   return "";
 }

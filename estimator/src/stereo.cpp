@@ -9,6 +9,18 @@
 
 namespace vilma::estimator {
 
+Eigen::Matrix4d StereoJointNoise(const Eigen::Matrix2d& R1, const Eigen::Matrix2d& R2,
+                                 double intensity_sigma, double pixel_sigma, double correlation) {
+  const double sI2 = intensity_sigma * intensity_sigma;
+  const double sp2 = pixel_sigma * pixel_sigma;
+  Eigen::Matrix4d N;
+  N.topLeftCorner<2, 2>() = sI2 * Eigen::Matrix2d::Identity() + sp2 * R1 * R1.transpose();
+  N.bottomRightCorner<2, 2>() = sI2 * Eigen::Matrix2d::Identity() + sp2 * R2 * R2.transpose();
+  N.topRightCorner<2, 2>() = correlation * sp2 * R1 * R2.transpose();
+  N.bottomLeftCorner<2, 2>() = N.topRightCorner<2, 2>().transpose();
+  return N;
+}
+
 bool PredictInOtherCamera(const Camera& camera2, const Transformation& T_C2_C1,
                           const Eigen::Vector3d& mu_C1, double rho,
                           OtherCameraPrediction* prediction) {

@@ -65,7 +65,12 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
   K_.resize(x_.dim(), 2);
   KS_.resize(x_.dim(), 2);
   Pcols_.resize(x_.dim(), 3);
-  if (stereo_) Pcols4_.resize(x_.dim(), 4);
+  if (stereo_) {
+    Pcols4_.resize(x_.dim(), 4);
+    PHt4_.resize(x_.dim(), 4);
+    K4_.resize(x_.dim(), 4);
+    KS4_.resize(x_.dim(), 4);
+  }
   occupied_.reserve(static_cast<std::size_t>(slots));
   imu_.reserve(4096);
 }
@@ -384,15 +389,38 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
   have_second_image_ = stereo_ && !second_gray8.empty();
   if (have_second_image_) pyramid2_.Build(second_gray8, options_.features.patch.num_levels);
 
+  const bool joint = have_second_image_ && options_.stereo.update && options_.stereo.joint_update;
   for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
     if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
+    if (joint) {
+      // Both cameras in one update; a camera that fails leaves the other's update alone.
+      const JointUpdate j = UpdateFeatureJoint(slot);
+      if (j == JointUpdate::kDone) {
+        ++result.num_updated;
+        ++result.num_stereo_updated;
+        continue;
+      }
+      if (UpdateFeature(slot)) {
+        ++result.num_updated;
+      } else {
+        ++result.num_rejected;
+      }
+      if (j == JointUpdate::kC1Failed && UpdateFeatureInSecond(slot)) {
+        ++result.num_stereo_updated;
+      } else {
+        ++stats_.stereo_rejections;
+      }
+      continue;
+    }
     if (UpdateFeature(slot)) {
       ++result.num_updated;
     } else {
       ++result.num_rejected;
     }
   }
-  if (have_second_image_ && options_.stereo.update) {
+  if (joint) {
+    stats_.stereo_updates += result.num_stereo_updated;
+  } else if (have_second_image_ && options_.stereo.update) {
     // The same features in the second camera (ROVIO's multi-camera update): one more iterated
     // update per feature, after all updates in the anchor camera.
     for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {

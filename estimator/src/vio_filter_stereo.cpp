@@ -9,13 +9,37 @@
 
 namespace vilma::estimator {
 
+bool VioFilter::PredictInSecond(const FilterState& x, int slot,
+                                const Eigen::Vector3d& mu_basis_at,
+                                OtherCameraPrediction* prediction,
+                                Eigen::Matrix<double, 2, 4>* J) const {
+  // The bearing moved to the image time (mu + mu_dot td, as in the anchor camera), then into
+  // C2: pixel = pi2(R mu_t + rho p). d pixel / d (d, rho, td) with d mu_t / d d = B(mu) to
+  // first order.
+  const FeatureState& f = x.features[static_cast<std::size_t>(slot)];
+  const Eigen::Vector3d mu_dot = BearingRate(x, slot);
+  const Eigen::Vector3d mu_t = (f.mu_C + mu_dot * x.td).normalized();
+  if (!PredictInOtherCamera(second_camera_.camera, T_C2_C1_, mu_t, f.rho, prediction)) {
+    return false;
+  }
+  if (J != nullptr) {
+    const Eigen::Matrix<double, 2, 3> J_mu = prediction->J_pixel_m * T_C2_C1_.rotationMatrix();
+    // Tangent columns: d mu / d d of mu = mu0 (+) d at the current mu is
+    // (I - mu mu^T) B(mu0) (the basis of the linearization point, as in UpdateFeature).
+    const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - f.mu_C * f.mu_C.transpose();
+    J->leftCols<2>() = J_mu * proj * BearingBasis(mu_basis_at);
+    J->col(2) = prediction->J_pixel_rho;
+    J->col(3) = J_mu * mu_dot;
+  }
+  return true;
+}
+
 bool VioFilter::UpdateFeatureInSecond(int slot) {
   const std::size_t i = static_cast<std::size_t>(slot);
   const int k = FeatureIndex(slot);
   Track& track = tracks_[i];
   const UpdateOptions& uo = options_.update;
   const PhotometricOptions& po = options_.features.photometric;
-  const Camera& camera2 = second_camera_.camera;
 
   // Columns of the measurement: the bearing tangent (2), rho (1), td (1).
   const int cols[4] = {k, k + 1, k + 2, kIdxTd};
@@ -25,32 +49,10 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
     for (int c = 0; c < 4; ++c) P_sub(r, c) = P_(cols[r], cols[c]);
   }
 
-  // Prediction at state x: the bearing moved to the image time (mu + mu_dot td, as in the
-  // anchor camera), then into C2: pixel = pi2(R mu_t + rho p). d pixel / d (d, rho, td) with
-  // d mu_t / d d = B(mu) to first order.
-  auto predict = [&](const FilterState& x, const Eigen::Vector3d& mu_basis_at,
-                     OtherCameraPrediction* pr, Eigen::Matrix<double, 2, 4>* J) -> bool {
-    const FeatureState& f = x.features[i];
-    const Eigen::Vector3d mu_dot = BearingRate(x, slot);
-    const Eigen::Vector3d mu_t = (f.mu_C + mu_dot * x.td).normalized();
-    const Transformation& T21 = T_C2_C1_;
-    if (!PredictInOtherCamera(camera2, T21, mu_t, f.rho, pr)) return false;
-    if (J != nullptr) {
-      const Eigen::Matrix<double, 2, 3> J_mu = pr->J_pixel_m * T21.rotationMatrix();
-      // Tangent columns: d mu / d d of mu = mu0 (+) d at the current mu is
-      // (I - mu mu^T) B(mu0) (the basis of the linearization point, as in UpdateFeature).
-      const Eigen::Matrix3d proj = Eigen::Matrix3d::Identity() - f.mu_C * f.mu_C.transpose();
-      J->leftCols<2>() = J_mu * proj * BearingBasis(mu_basis_at);
-      J->col(2) = pr->J_pixel_rho;
-      J->col(3) = J_mu * mu_dot;
-    }
-    return true;
-  };
-
   const Eigen::Vector3d mu0 = x_.features[i].mu_C;
   OtherCameraPrediction pr;
   Eigen::Matrix<double, 2, 4> J0;
-  if (!predict(x_, mu0, &pr, &J0)) return false;  // not in C2's view: no update, kept
+  if (!PredictInSecond(x_, slot, mu0, &pr, &J0)) return false;  // not in C2's view: no update, kept
   const Eigen::Matrix2d W = OtherCameraWarp(pr, track.A, track.D);
   if (!W.allFinite() || std::abs(W.determinant()) < 0.05 || std::abs(W.determinant()) > 20.0) {
     return false;
@@ -82,7 +84,7 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
   for (int it = 0; it < uo.max_iterations; ++it) {
     OtherCameraPrediction pr_it;
     Eigen::Matrix<double, 2, 4> J_it;
-    if (!predict(x_iter_, mu0, &pr_it, &J_it)) break;
+    if (!PredictInSecond(x_iter_, slot, mu0, &pr_it, &J_it)) break;
     if (!ComputePhotometricResidual(track.patch, pyramid2_, pr_it.pixel, W, po, &residual_,
                                     &J_residual_pixel_)) {
       break;
@@ -116,7 +118,7 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
     BoxPlus(x0_, dx_, &x_iter_);
     have_gain = true;
     OtherCameraPrediction pr_new;
-    if (!predict(x_iter_, mu0, &pr_new, nullptr)) break;
+    if (!PredictInSecond(x_iter_, slot, mu0, &pr_new, nullptr)) break;
     const bool converged = (pr_new.pixel - last_pixel).norm() < uo.convergence_px;
     last_pixel = pr_new.pixel;
     if (converged) break;
@@ -129,6 +131,174 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
   KS_.noalias() = K_ * S;
   P_.noalias() -= KS_ * K_.transpose();
   return true;
+}
+
+namespace {
+
+// Huber weights (rows scaled by sqrt(w), w = min(1, c / |r|)) and the QR reduction of the
+// photometric residual to two rows, as in VioFilter::UpdateFeature: with L L^T = J^T J,
+// R = L^T and y = Q1^T r = L^-1 J^T r. False if J^T J is singular.
+bool ReduceResidual(double huber_threshold, Eigen::VectorXd* residual,
+                    Eigen::Matrix<double, Eigen::Dynamic, 2>* J, Eigen::Matrix2d* R,
+                    Eigen::Vector2d* y) {
+  for (Eigen::Index r = 0; r < residual->size(); ++r) {
+    const double a = std::abs((*residual)[r]);
+    if (a > huber_threshold) {
+      const double sw = std::sqrt(huber_threshold / a);
+      (*residual)[r] *= sw;
+      J->row(r) *= sw;
+    }
+  }
+  const Eigen::Matrix2d JtJ = J->transpose() * *J;
+  const Eigen::LLT<Eigen::Matrix2d> llt(JtJ);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix2d L = llt.matrixL();
+  *R = L.transpose();
+  *y = L.triangularView<Eigen::Lower>().solve(J->transpose() * *residual);
+  return true;
+}
+
+}  // namespace
+
+VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
+  const std::size_t i = static_cast<std::size_t>(slot);
+  const int k = FeatureIndex(slot);
+  const Track& track = tracks_[i];
+  const UpdateOptions& uo = options_.update;
+  const PhotometricOptions& po = options_.features.photometric;
+  const double c = options_.stereo.model_error_correlation;
+
+  // Columns of the joint measurement: the bearing tangent (2), rho (1), td (1); the C1 rows
+  // do not depend on rho (that column of their Jacobian is zero).
+  const int cols[4] = {k, k + 1, k + 2, kIdxTd};
+  for (int col = 0; col < 4; ++col) Pcols4_.col(col) = P_.col(cols[col]);
+  Eigen::Matrix4d P_sub;
+  for (int r = 0; r < 4; ++r) {
+    for (int col = 0; col < 4; ++col) P_sub(r, col) = P_(cols[r], cols[col]);
+  }
+  const double px2 = uo.pixel_sigma * uo.pixel_sigma;
+
+  // 1. Each camera's outlier check exactly as in its separate update (alignment from the
+  //    prediction, Mahalanobis gate on the aligned pixel).
+  const Eigen::Vector3d mu0 = x_.features[i].mu_C;
+  const Eigen::Matrix<double, 3, 2> B0 = BearingBasis(mu0);
+  Eigen::Vector2d pixel1, J_td1;
+  Eigen::Matrix<double, 2, 3> Jp1;
+  if (!PredictPixel(x_, slot, &pixel1, &Jp1, &J_td1)) return JointUpdate::kC1Failed;
+  const Eigen::Matrix2d W1 = Warp(slot, Jp1);
+  if (!W1.allFinite() || std::abs(W1.determinant()) < 0.05 ||
+      std::abs(W1.determinant()) > 20.0) {
+    return JointUpdate::kC1Failed;
+  }
+  Eigen::Matrix<double, 4, 4> J0 = Eigen::Matrix4d::Zero();  // d (pixel1, pixel2) / d cols
+  J0.block<2, 2>(0, 0) = Jp1 * B0;
+  J0.block<2, 1>(0, 3) = J_td1;
+  const AlignmentResult aligned1 =
+      AlignPatch(track.patch, pyramid_, pixel1, W1, po, uo.align_iterations);
+  const Eigen::Matrix2d S1 = J0.topRows<2>() * P_sub * J0.topRows<2>().transpose() +
+                             (px2 + 0.25) * Eigen::Matrix2d::Identity();
+  const Eigen::Vector2d e1 = aligned1.pixel - pixel1;
+  if (!aligned1.converged || aligned1.mean_abs_error > uo.max_mean_abs_error ||
+      !(e1.dot(S1.ldlt().solve(e1)) < uo.mahalanobis_threshold)) {
+    return JointUpdate::kC1Failed;
+  }
+  OtherCameraPrediction pr2;
+  Eigen::Matrix<double, 2, 4> J02;
+  if (!PredictInSecond(x_, slot, mu0, &pr2, &J02)) return JointUpdate::kC2Failed;
+  const Eigen::Matrix2d W2 = OtherCameraWarp(pr2, track.A, track.D);
+  if (!W2.allFinite() || std::abs(W2.determinant()) < 0.05 ||
+      std::abs(W2.determinant()) > 20.0) {
+    return JointUpdate::kC2Failed;
+  }
+  J0.bottomRows<2>() = J02;
+  const AlignmentResult aligned2 =
+      AlignPatch(track.patch, pyramid2_, pr2.pixel, W2, po, uo.align_iterations);
+  const Eigen::Matrix2d S2 =
+      J02 * P_sub * J02.transpose() + (px2 + 0.25) * Eigen::Matrix2d::Identity();
+  const Eigen::Vector2d e2 = aligned2.pixel - pr2.pixel;
+  if (!aligned2.converged || aligned2.mean_abs_error > uo.max_mean_abs_error ||
+      !(e2.dot(S2.ldlt().solve(e2)) < uo.mahalanobis_threshold)) {
+    return JointUpdate::kC2Failed;
+  }
+
+  // 2. Iterated EKF on both photometric errors at once (IJRR 2017, sec. 5, with the rows of
+  //    both cameras): y = [y1; y2], H = [R1 J1; R2 J2] (4 x 4 over the columns above),
+  //    noise N = StereoJointNoise(R1, R2, ...): the template's model error is shared.
+  //    Start: one step with both aligned pixels.
+  x0_ = x_;
+  Eigen::Matrix4d N_pix = StereoJointNoise(Eigen::Matrix2d::Identity(),
+                                           Eigen::Matrix2d::Identity(), 0.0, uo.pixel_sigma, c);
+  N_pix += 0.25 * Eigen::Matrix4d::Identity();  // alignment precision [px^2]
+  Eigen::Vector4d e;
+  e << e1, e2;
+  PHt4_.noalias() = Pcols4_ * J0.transpose();
+  K4_.noalias() = PHt4_ * (J0 * P_sub * J0.transpose() + N_pix).inverse();
+  dx_.noalias() = K4_ * e;
+  BoxPlus(x0_, dx_, &x_iter_);
+
+  Eigen::Matrix4d S = Eigen::Matrix4d::Identity();
+  bool have_gain = false;
+  Eigen::Vector2d last1 = aligned1.pixel, last2 = aligned2.pixel;
+  for (int it = 0; it < uo.max_iterations; ++it) {
+    const Eigen::Vector3d& mu = x_iter_.features[i].mu_C;
+    Eigen::Vector2d p1, Jtd1;
+    Eigen::Matrix<double, 2, 3> Jp;
+    OtherCameraPrediction p2;
+    Eigen::Matrix<double, 2, 4> J2;
+    if (!PredictPixel(x_iter_, slot, &p1, &Jp, &Jtd1)) break;
+    if (!PredictInSecond(x_iter_, slot, mu0, &p2, &J2)) break;
+    Eigen::Matrix2d R1, R2;
+    Eigen::Vector2d y1, y2;
+    if (!ComputePhotometricResidual(track.patch, pyramid_, p1, W1, po, &residual_,
+                                    &J_residual_pixel_) ||
+        !ReduceResidual(uo.huber_threshold, &residual_, &J_residual_pixel_, &R1, &y1)) {
+      break;
+    }
+    if (!ComputePhotometricResidual(track.patch, pyramid2_, p2.pixel, W2, po, &residual2_,
+                                    &J_residual_pixel2_) ||
+        !ReduceResidual(uo.huber_threshold, &residual2_, &J_residual_pixel2_, &R2, &y2)) {
+      break;
+    }
+    Eigen::Matrix<double, 2, 4> J1 = Eigen::Matrix<double, 2, 4>::Zero();
+    J1.leftCols<2>() = Jp * (Eigen::Matrix3d::Identity() - mu * mu.transpose()) * B0;
+    J1.col(3) = Jtd1;
+    Eigen::Matrix4d H;
+    H.topRows<2>() = R1 * J1;
+    H.bottomRows<2>() = R2 * J2;
+    Eigen::Vector4d y;
+    y << y1, y2;
+    S = H * P_sub * H.transpose() +
+        StereoJointNoise(R1, R2, uo.intensity_sigma, uo.pixel_sigma, c);
+    const FeatureState& f = x_iter_.features[i];
+    Eigen::Vector4d d_cur;
+    d_cur << BearingBoxMinus(f.mu_C, mu0), f.rho - x0_.features[i].rho, x_iter_.td - x0_.td;
+    PHt4_.noalias() = Pcols4_ * H.transpose();
+    K4_.noalias() = PHt4_ * S.inverse();
+    dx_.noalias() = K4_ * (-y + H * d_cur);
+    BoxPlus(x0_, dx_, &x_iter_);
+    have_gain = true;
+    Eigen::Vector2d n1;
+    OtherCameraPrediction n2;
+    if (!PredictPixel(x_iter_, slot, &n1, nullptr, nullptr) ||
+        !PredictInSecond(x_iter_, slot, mu0, &n2, nullptr)) {
+      break;
+    }
+    const bool converged = (n1 - last1).norm() < uo.convergence_px &&
+                           (n2.pixel - last2).norm() < uo.convergence_px;
+    last1 = n1;
+    last2 = n2.pixel;
+    if (converged) break;
+  }
+  if (!have_gain || !x_iter_.features[i].mu_C.allFinite() ||
+      !std::isfinite(x_iter_.features[i].rho)) {
+    return JointUpdate::kC2Failed;  // nothing applied; C1 alone is tried by the caller
+  }
+  x_ = x_iter_;
+  KS4_.noalias() = K4_ * S;
+  P_.noalias() -= KS4_ * K4_.transpose();
+  tracks_[i].failures = 0;
+  ++tracks_[i].age;
+  return JointUpdate::kDone;
 }
 
 void VioFilter::InitializeDepthFromStereo(int slot) {

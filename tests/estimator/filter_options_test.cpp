@@ -84,6 +84,10 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
   CHECK(ParseFilterOptions(replace("min_uniqueness_ratio: 0.0", "min_uniqueness_ratio: 1.3"),
                            "f.yaml")
             .stereo.min_uniqueness_ratio == 1.3);
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("model_error_correlation: 0.9",
+                                               "model_error_correlation: 1.5"),
+                                       "f.yaml"),
+                    "f.yaml: stereo.model_error_correlation: expected a value in [0, 1]");
   CHECK_THROWS_WITH(ParseFilterOptions("[1, 2]", "f.yaml"), Catch::Contains("f.yaml"));
   CHECK_THROWS_WITH(LoadFilterOptions("/nonexistent/estimator.yaml"),
                     Catch::Contains("/nonexistent/estimator.yaml"));

@@ -1,9 +1,12 @@
 #include "vilma/estimator/stereo.h"
 
+#include <Eigen/Cholesky>
 #include <catch2/catch.hpp>
 #include <cmath>
+#include <random>
 
 #include "estimator/plane_scene.h"
+#include "test_random.h"
 #include "vilma/estimator/filter_state.h"
 #include "vilma/estimator/vio_filter.h"
 #include "vilma/estimator/vio_pipeline.h"
@@ -83,6 +86,91 @@ TEST_CASE("the second camera's pixel Jacobians match numeric differences") {
       }
       CHECK((W - W_num).norm() < 1e-4 * (1.0 + W_num.norm()));
     }
+  }
+}
+
+// The joint update's noise (StereoJointNoise) against the covariance of its model, sampled:
+// y_i = R_i e_i + n_i with e_1 ~ N(0, sp^2 I), e_2 = c e_1 + sqrt(1 - c^2) e', n_i ~ N(0, sI^2 I).
+TEST_CASE("the joint stereo noise is the covariance of two residuals sharing a pixel error") {
+  Eigen::Matrix2d R1, R2;
+  R1 << 30.0, -4.0, 0.0, 22.0;  // upper triangular, as the QR factor
+  R2 << 26.0, 5.0, 0.0, 31.0;
+  const double sI = 6.0, sp = 0.5;
+  for (const double c : {0.0, 0.6, 1.0}) {
+    const Eigen::Matrix4d N = StereoJointNoise(R1, R2, sI, sp, c);
+    CHECK((N - N.transpose()).norm() == 0.0);
+    std::mt19937 rng(7);
+    std::normal_distribution<double> n01(0.0, 1.0);
+    auto draw = [&] { return n01(rng); };
+    Eigen::Matrix4d sum = Eigen::Matrix4d::Zero();
+    const int samples = 200000;
+    for (int s = 0; s < samples; ++s) {
+      const Eigen::Vector2d e1 = sp * vilma::testing::DrawVector2(draw);
+      const Eigen::Vector2d e_other = sp * vilma::testing::DrawVector2(draw);
+      const Eigen::Vector2d e2 = c * e1 + std::sqrt(1.0 - c * c) * e_other;
+      const Eigen::Vector2d n1 = sI * vilma::testing::DrawVector2(draw);
+      const Eigen::Vector2d n2 = sI * vilma::testing::DrawVector2(draw);
+      Eigen::Vector4d y;
+      y << R1 * e1 + n1, R2 * e2 + n2;
+      sum += y * y.transpose();
+    }
+    const Eigen::Matrix4d sampled = sum / samples;
+    INFO("c " << c << "\nN\n" << N << "\nsampled\n" << sampled);
+    // 200000 samples: relative standard error ~ sqrt(2 / 200000) = 0.3 % of the diagonal.
+    for (int r = 0; r < 4; ++r) {
+      for (int col = 0; col < 4; ++col) {
+        CHECK(std::abs(sampled(r, col) - N(r, col)) <
+              0.015 * std::sqrt(N(r, r) * N(col, col)));
+      }
+    }
+    if (c == 0.0) CHECK(N.topRightCorner<2, 2>().norm() == 0.0);
+    // Positive definite for every c in [0, 1] (the intensity noise keeps it so at c = 1).
+    CHECK(Eigen::LLT<Eigen::Matrix4d>(N).info() == Eigen::Success);
+  }
+}
+
+// The joint update's measurement: both pixels of a feature, (pixel_1, pixel_2) = (pi_1(mu),
+// pi_2(R mu + rho p)), against the tangent and rho of the feature. The C1 rows have a zero rho
+// column (C1 alone does not see depth); the C2 rows are PredictInOtherCamera's Jacobians.
+TEST_CASE("the joint stereo measurement's Jacobian matches numeric differences") {
+  const Camera camera1 = DistortedCamera();
+  const Camera camera2 = DistortedCamera();
+  const Transformation T21 = SomeT_C2_C1();
+  auto pixels = [&](const Eigen::Vector3d& mu, double rho, Eigen::Vector4d* z,
+                    Eigen::Matrix<double, 4, 3>* J) {
+    Eigen::Vector2d p1;
+    Eigen::Matrix<double, 2, 3> J1;
+    REQUIRE(camera1.Project(mu, &p1, &J1) == Camera::ProjectionResult::kValid);
+    OtherCameraPrediction p2;
+    REQUIRE(PredictInOtherCamera(camera2, T21, mu, rho, &p2));
+    *z << p1, p2.pixel;
+    if (J != nullptr) {
+      J->setZero();
+      J->block<2, 2>(0, 0) = J1 * BearingBasis(mu);  // as VioFilter::UpdateFeatureJoint
+      J->block<2, 2>(2, 0) = p2.J_pixel_bearing;
+      J->block<2, 1>(2, 2) = p2.J_pixel_rho;
+    }
+  };
+  for (const double rho : {0.0, 0.4, 2.0}) {
+    const Eigen::Vector3d mu = Eigen::Vector3d(0.2, -0.15, 1.0).normalized();
+    Eigen::Vector4d z;
+    Eigen::Matrix<double, 4, 3> J;
+    pixels(mu, rho, &z, &J);
+    Eigen::Matrix<double, 4, 3> J_num;
+    const double h = 1e-6;
+    for (int k = 0; k < 2; ++k) {
+      Eigen::Vector4d plus, minus;
+      pixels(BearingBoxPlus(mu, Eigen::Vector2d::Unit(k) * h), rho, &plus, nullptr);
+      pixels(BearingBoxPlus(mu, -Eigen::Vector2d::Unit(k) * h), rho, &minus, nullptr);
+      J_num.col(k) = (plus - minus) / (2 * h);
+    }
+    Eigen::Vector4d plus, minus;
+    pixels(mu, rho + h, &plus, nullptr);
+    pixels(mu, rho - h, &minus, nullptr);
+    J_num.col(2) = (plus - minus) / (2 * h);
+    INFO("rho " << rho << " J\n" << J << "\nnumeric\n" << J_num);
+    CHECK((J - J_num).norm() < 1e-5 * (1.0 + J_num.norm()));
+    CHECK(J_num.block<2, 1>(0, 2).norm() < 1e-6);
   }
 }
 
@@ -243,6 +331,41 @@ TEST_CASE("stereo: new features start at the matched depth and the motion is tra
   RunStereoScene(scene, stereo, 1.0, &f, &again);
   VioFilter again2(scene.rig(), 0, stereo);
   RunStereoScene(scene, stereo, 1.0, &f, &again2);
+  CHECK(again.state().p_M_I == again2.state().p_M_I);
+}
+
+// The joint update of both cameras (stereo.joint_update, with and without the shared model
+// error) tracks the scene and finds the plane's depth as the separate updates do.
+TEST_CASE("stereo: the joint update of both cameras tracks the motion") {
+  const PlaneScene scene(2);
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  options.stereo.enabled = true;
+  options.stereo.joint_update = true;
+  options.stereo.model_error_correlation = GENERATE(0.0, 0.9);
+  VioFilter filter(scene.rig(), 0, options);
+  VioFilter* f = nullptr;
+  const double error = RunStereoScene(scene, options, 3.0, &f, &filter);
+  const FilterStats& s = filter.stats();
+  INFO("correlation " << options.stereo.model_error_correlation << ": final error " << error
+                      << " m; stereo updates " << s.stereo_updates << " ("
+                      << s.stereo_rejections << " not), updates " << s.updates);
+  CHECK(s.stereo_updates > s.updates / 2);
+  CHECK(error < 0.05);
+  int checked = 0;
+  for (const FeatureState& feature : filter.state().features) {
+    if (!feature.active) continue;
+    const Eigen::Vector3d mu_M = filter.state().q_M_I * feature.mu_C;
+    const double rho_true = mu_M.z() / (PlaneScene::kPlaneZ - filter.state().p_M_I.z());
+    CHECK(std::abs(feature.rho - rho_true) < 0.1 * rho_true);
+    ++checked;
+  }
+  CHECK(checked >= 6);
+  // Deterministic.
+  VioFilter again(scene.rig(), 0, options), again2(scene.rig(), 0, options);
+  RunStereoScene(scene, options, 1.0, &f, &again);
+  RunStereoScene(scene, options, 1.0, &f, &again2);
   CHECK(again.state().p_M_I == again2.state().p_M_I);
 }
 

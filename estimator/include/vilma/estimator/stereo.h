@@ -45,6 +45,21 @@ inline Eigen::Matrix2d OtherCameraWarp(const OtherCameraPrediction& p, const Eig
   return p.J_pixel_bearing * A * D;
 }
 
+// Noise of the joint photometric innovation of one feature in both cameras (docs/estimator.md,
+// "The joint update of both cameras"). Each camera's residual is QR-reduced to two rows,
+// y_i = R_i (pixel error) + (intensity noise), R_i the 2x2 triangular factor of its Jacobian.
+// The pixel-level model error e_i (std pixel_sigma in each image: warp and template errors)
+// comes from the same template in both images, with correlation c: e_2 = c e_1 + sqrt(1 - c^2)
+// e', so
+//
+//   N = [ sI^2 I + sp^2 R1 R1^T     c sp^2 R1 R2^T       ]
+//       [ c sp^2 R2 R1^T            sI^2 I + sp^2 R2 R2^T ]
+//
+// (c = 0: two independent updates, the separate C1 and C2 updates). The two pixel frames are
+// taken as parallel (a near-rectified pair: the template's error moves both images alike).
+Eigen::Matrix4d StereoJointNoise(const Eigen::Matrix2d& R1, const Eigen::Matrix2d& R2,
+                                 double intensity_sigma, double pixel_sigma, double correlation);
+
 struct StereoMatchOptions {
   double max_inverse_depth = 5.0;  // [1/m]
   double search_step_px = 2.0;     // [px]

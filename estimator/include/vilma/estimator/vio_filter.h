@@ -138,6 +138,16 @@ class VioFilter {
   // and the initial inverse distance of a new feature from a stereo match.
   bool UpdateFeatureInSecond(int slot);
   void InitializeDepthFromStereo(int slot);
+  // stereo.joint_update: C1 and C2 of one feature in one 4-row iterated update with the
+  // correlated model error of StereoJointNoise. kC1Failed / kC2Failed: that camera's
+  // prediction, alignment or gate failed (or the joint step did not converge); nothing was
+  // changed and the caller updates with the camera(s) left.
+  enum class JointUpdate { kDone, kC1Failed, kC2Failed };
+  JointUpdate UpdateFeatureJoint(int slot);
+  // The feature's pixel in the second camera at the image time and d pixel / d (tangent at
+  // mu_basis_at, rho, td). False if it does not project into the second image.
+  bool PredictInSecond(const FilterState& x, int slot, const Eigen::Vector3d& mu_basis_at,
+                       OtherCameraPrediction* prediction, Eigen::Matrix<double, 2, 4>* J) const;
   void AddFeatures();
   void RemoveFeature(int slot);
   std::string CheckHealth() const;
@@ -184,6 +194,9 @@ class VioFilter {
   Eigen::Matrix<double, Eigen::Dynamic, 2> PHt_, K_, KS_;
   Eigen::Matrix<double, Eigen::Dynamic, 3> Pcols_;  // P columns of (dmu, dtd) of one feature
   Eigen::Matrix<double, Eigen::Dynamic, 4> Pcols4_;  // stereo: (dmu, drho, dtd)
+  Eigen::Matrix<double, Eigen::Dynamic, 4> PHt4_, K4_, KS4_;  // stereo: the joint update
+  Eigen::VectorXd residual2_;                         // stereo: the joint update's C2 residual
+  Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel2_;
   Eigen::Vector3d last_omega_m_ = Eigen::Vector3d::Zero();  // last gyro measurement [rad/s]
   Eigen::VectorXd residual_;
   Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel_;
