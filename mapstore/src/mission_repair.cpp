@@ -20,6 +20,23 @@ bool IdTakenByAnotherKind(const VIMap& map, const MissionId& mission_id, const I
          (!landmark && map.HasLandmark(id));
 }
 
+// Runs `upsert` unless `why_not` already says why the element cannot be taken; an element the
+// map refuses (std::invalid_argument: a vertex never sent, ...) is counted like one refused here.
+template <typename Upsert>
+void UpsertOrRefuse(const char* kind, const Id& id, std::string why_not, Upsert upsert,
+                    std::size_t* refused, MissionRepairReport* report) {
+  if (why_not.empty()) {
+    try {
+      upsert();
+      return;
+    } catch (const std::exception& e) {
+      why_not = e.what();
+    }
+  }
+  ++*refused;
+  report->Note(std::string(kind) + " " + id.Hex() + " refused: " + why_not);
+}
+
 bool ObservationIsMutual(const VIMap& map, const LandmarkId& landmark_id, const LandmarkObservation& o) {
   if (!map.HasVertex(o.vertex_id)) return false;
   const Vertex& v = map.vertex(o.vertex_id);
@@ -240,52 +257,21 @@ void ApplyStreamedDelta(const MissionDelta& delta, const MissionId& mission_id, 
     ++report->headers_refused;
     report->Note("a mission header of " + delta.mission.id.Hex() + " refused");
   }
+  constexpr char kIdTaken[] = "its id names another element";
   for (const Vertex& v : delta.vertices) {
-    std::string why;
-    if (v.mission_id != mission_id) {
-      why = "it says mission " + v.mission_id.Hex();
-    } else if (IdTakenByAnotherKind(*map, mission_id, v.id, true, false, false)) {
-      why = "its id names another element";
-    } else {
-      try {
-        map->UpsertVertex(v);
-        continue;
-      } catch (const std::exception& e) {
-        why = e.what();
-      }
-    }
-    ++report->vertices_refused;
-    report->Note("vertex " + v.id.Hex() + " refused: " + why);
+    const std::string why = v.mission_id != mission_id ? "it says mission " + v.mission_id.Hex()
+                            : IdTakenByAnotherKind(*map, mission_id, v.id, true, false, false) ? kIdTaken
+                                                                                                 : "";
+    UpsertOrRefuse("vertex", v.id, why, [&] { map->UpsertVertex(v); }, &report->vertices_refused, report);
   }
   for (const Edge& e : delta.edges) {
-    std::string why;
-    if (IdTakenByAnotherKind(*map, mission_id, e.id, false, true, false)) {
-      why = "its id names another element";
-    } else {
-      try {
-        map->UpsertEdge(e);
-        continue;
-      } catch (const std::exception& x) {
-        why = x.what();
-      }
-    }
-    ++report->edges_refused;
-    report->Note("edge " + e.id.Hex() + " refused: " + why);
+    const bool taken = IdTakenByAnotherKind(*map, mission_id, e.id, false, true, false);
+    UpsertOrRefuse("edge", e.id, taken ? kIdTaken : "", [&] { map->UpsertEdge(e); }, &report->edges_refused, report);
   }
   for (const Landmark& l : delta.landmarks) {
-    std::string why;
-    if (IdTakenByAnotherKind(*map, mission_id, l.id, false, false, true)) {
-      why = "its id names another element";
-    } else {
-      try {
-        map->UpsertLandmark(l);
-        continue;
-      } catch (const std::exception& x) {
-        why = x.what();
-      }
-    }
-    ++report->landmarks_refused;
-    report->Note("landmark " + l.id.Hex() + " refused: " + why);
+    const bool taken = IdTakenByAnotherKind(*map, mission_id, l.id, false, false, true);
+    UpsertOrRefuse("landmark", l.id, taken ? kIdTaken : "", [&] { map->UpsertLandmark(l); },
+                   &report->landmarks_refused, report);
   }
 }
 
