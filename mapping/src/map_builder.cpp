@@ -26,8 +26,10 @@ std::string Upper(std::string s) {
   return s;
 }
 
-// Track ids of camera c start at c * 2^40, so the trackers of a rig never share an id.
+// Track ids of camera c start at c * 2^40, so the trackers of a rig never share an id; the
+// ids of split tracks (track refinement) at c * 2^40 + 2^39.
 constexpr int64_t kTrackIdsPerCamera = int64_t{1} << 40;
+constexpr int64_t kSplitTrackIdOffset = int64_t{1} << 39;
 
 }  // namespace
 
@@ -48,7 +50,12 @@ std::string MapBuilderStats::FullReport(const std::string& indent) const {
     << indent << "IMU edges        " << imu_edges << " (" << imu_samples << " samples, "
     << imu_dropped << " dropped, " << imu_edges_held << " edges ended by a held sample)\n"
     << indent << "keypoints        " << keypoints << " (" << tracked_keypoints
-    << " continue a track)\n"
+    << " continue a track)\n";
+  if (refined_keypoints > 0 || refinement_splits > 0) {
+    s << indent << "track refinement " << refined_keypoints << " observations aligned to their "
+      << "track's first, " << refinement_splits << " tracks split\n";
+  }
+  s
     << indent << "tracks           " << tracks << " with >= 2 observations, " << single_observations
     << " seen once";
   if (track_cuts > 0) s << ", " << track_cuts << " cut at the length limit";
@@ -99,6 +106,7 @@ MapBuilder::MapBuilder(const SensorRig& rig, const MapBuilderOptions& options,
     cameras_ = options_.cameras;
   }
   trackers_.resize(rig_.cameras.size());
+  refiners_.resize(rig_.cameras.size());
   for (int c : cameras_) {
     if (c >= static_cast<int>(rig_.cameras.size())) {
       throw InputError(FormatInputError(
@@ -107,6 +115,8 @@ MapBuilder::MapBuilder(const SensorRig& rig, const MapBuilderOptions& options,
     }
     trackers_[static_cast<std::size_t>(c)] = std::make_unique<localizer::FeatureTracker>(
         options_.features, static_cast<int64_t>(c) * kTrackIdsPerCamera);
+    refiners_[static_cast<std::size_t>(c)] = std::make_unique<TrackRefiner>(
+        options_.track_refinement, static_cast<int64_t>(c) * kTrackIdsPerCamera + kSplitTrackIdOffset);
   }
   mapstore::IdGenerator mission_ids(mission_seed);
   mission_id_ = mission_ids.Next();
@@ -275,6 +285,7 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
       // No image of this camera: its tracks end here (the next keyframe would be matched
       // against an older one with the wrong rotation).
       tracker.Reset();
+      refiners_[ci]->Reset();
       continue;
     }
     const CameraConfig& cam = rig_.cameras[ci];
@@ -300,7 +311,18 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
                   r.features.descriptors.ptr<uint8_t>(static_cast<int>(k)),
                   frame.descriptor_size_bytes);
     }
-    frame.track_ids = r.track_ids;
+    if (options_.track_refinement.enabled()) {
+      TrackRefiner& refiner = *refiners_[ci];
+      std::vector<Eigen::Vector2d> uv(n);
+      for (std::size_t k = 0; k < n; ++k) uv[k] = frame.keypoints[k].uv;
+      const TrackRefinementStats before = refiner.stats();
+      refiner.Refine(*image, r.track_ids, &uv, &frame.track_ids);
+      for (std::size_t k = 0; k < n; ++k) frame.keypoints[k].uv = uv[k];
+      stats_.refined_keypoints += refiner.stats().refined - before.refined;
+      stats_.refinement_splits += refiner.stats().splits - before.splits;
+    } else {
+      frame.track_ids = r.track_ids;
+    }
     frame.landmark_ids.assign(n, mapstore::LandmarkId());
     stats_.keypoints += static_cast<int64_t>(n);
     stats_.tracked_keypoints += r.num_matched;

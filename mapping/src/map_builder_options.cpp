@@ -23,6 +23,14 @@ void VisitMapBuilderFields(Options& o, Visitor&& v) {
   v("", "keep_images", o.keep_images);
   v("", "max_track_vertices", o.max_track_vertices);
   v("", "max_track_duration_s", o.max_track_duration_s);
+  v("track_refinement", "method", o.track_refinement.method);
+  v("track_refinement", "patch_half_size_px", o.track_refinement.patch_half_size_px);
+  v("track_refinement", "max_iterations", o.track_refinement.max_iterations);
+  v("track_refinement", "convergence_px", o.track_refinement.convergence_px);
+  v("track_refinement", "max_shift_px", o.track_refinement.max_shift_px);
+  v("track_refinement", "max_offset_px", o.track_refinement.max_offset_px);
+  v("track_refinement", "max_error_grey", o.track_refinement.max_error_grey);
+  v("track_refinement", "max_warp_scale", o.track_refinement.max_warp_scale);
   v("triangulation", "max_iterations", o.triangulation.max_iterations);
   v("triangulation", "convergence_step_m", o.triangulation.convergence_step_m);
   v("triangulation", "keypoint_sigma_px", o.triangulation.keypoint_sigma_px);
@@ -76,6 +84,7 @@ std::string MapBuilderOptions::Validate() const {
     }
   }
   if (!(e = features.Validate()).empty()) return "features." + e;
+  if (!(e = track_refinement.Validate()).empty()) return "track_refinement." + e;
   if (!(e = triangulation.Validate()).empty()) return "triangulation." + e;
   if (!(e = landmark_quality.Validate()).empty()) return "landmark_quality." + e;
   if (compact != "none" && compact != "tracks" && compact != "good") {

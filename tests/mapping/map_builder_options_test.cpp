@@ -38,6 +38,9 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   o.keep_images = true;
   o.max_track_vertices = 40;
   o.max_track_duration_s = 2.5;
+  o.track_refinement.method = "affine";
+  o.track_refinement.max_offset_px = 0.75;
+  o.track_refinement.max_error_grey = 5.5;
   const MapBuilderOptions back = ParseMapBuilderOptions(MapBuilderOptionsToYaml(o), "t.yaml");
   CHECK(back.vertex_rate_hz == 7.5);
   CHECK(back.cameras == std::vector<int>{1, 0});
@@ -48,6 +51,9 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   CHECK(back.keep_images);
   CHECK(back.max_track_vertices == 40);
   CHECK(back.max_track_duration_s == 2.5);
+  CHECK(back.track_refinement.method == "affine");
+  CHECK(back.track_refinement.max_offset_px == 0.75);
+  CHECK(back.track_refinement.max_error_grey == 5.5);
   CHECK(MapBuilderOptionsToYaml(back) == MapBuilderOptionsToYaml(o));
 }
 
@@ -85,6 +91,9 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
                     Catch::Contains("max_track_duration_s"));
   CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100\n", ""), "m.yaml"),
                     Catch::Contains("max_track_vertices"));
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "method: \"none\"", "method: \"klt\""),
+                                           "m.yaml"),
+                    Catch::Contains("track_refinement.method"));
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: [0, 0]"), "m"),
                   InputError);
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: 3"), "m"),

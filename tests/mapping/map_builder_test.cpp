@@ -362,6 +362,46 @@ TEST_CASE("map builder: room session driven by ground truth", "[mapping][sim]") 
   for (const fs::path& d : {dir_a, dir_b, dir_c}) fs::remove_all(d);
 }
 
+TEST_CASE("map builder: track refinement puts the room's landmarks closer to the surfaces",
+          "[mapping][sim]") {
+  const fs::path dataset = RoomSession();
+  if (dataset.empty()) {
+    VILMA_SKIP("vilma-sim not built (" << VILMA_BINARY_DIR << "/bin/vilma-sim)");
+  }
+  const sim::World world = sim::MakePresetWorld("room", 1);
+  const auto median_distance = [&](const mapstore::VIMap& map) {
+    const mapstore::MissionId mission = map.mission_ids().at(0);
+    std::vector<double> distances;
+    for (const mapstore::LandmarkId& id : map.landmark_ids(mission)) {
+      if (map.landmark(id).quality != mapstore::LandmarkQuality::kGood) continue;
+      distances.push_back(DistanceToWorld(world, map.LandmarkPosition_M(id)));
+    }
+    return Median(distances);
+  };
+  const GtBuild plain = BuildFromGroundTruth(dataset);
+  MapBuilderOptions options;
+  options.track_refinement.method = "affine";
+  const GtBuild refined = BuildFromGroundTruth(dataset, options);
+  const double d_plain = median_distance(plain.map);
+  const double d_refined = median_distance(refined.map);
+  INFO(refined.stats.FullReport());
+  WARN("ground truth poses, median landmark distance to the world: detector keypoints "
+       << d_plain * 100 << " cm (" << plain.stats.landmarks_good << " good), affine track "
+       << "refinement " << d_refined * 100 << " cm (" << refined.stats.landmarks_good
+       << " good; " << refined.stats.refined_keypoints << " observations aligned, "
+       << refined.stats.refinement_splits << " splits)");
+  CHECK(refined.stats.refined_keypoints > refined.stats.tracked_keypoints / 2);
+  CHECK(refined.stats.refinement_splits < refined.stats.tracked_keypoints / 5);
+  CHECK(refined.stats.landmarks_good >= 300);
+  CHECK(d_refined < 0.5 * d_plain);  // measured 0.33 against 1.54 cm (2026-11-27)
+  CHECK(mapstore::CheckMapConsistency(refined.map).ok());
+  // The delta stream carries the refined keypoints and split track ids like any others.
+  mapstore::VIMap from_deltas;
+  for (const auto& d : refined.deltas) mapstore::ApplyMissionDelta(d, &from_deltas);
+  CHECK(from_deltas.num_landmarks() == refined.map.num_landmarks());
+  CHECK(mapstore::CheckMapConsistency(from_deltas).ok());
+}
+
 TEST_CASE("map builder: room session driven by the VIO (vilma vio --save-map)", "[mapping][sim]") {
   const fs::path vilma = fs::path(VILMA_BINARY_DIR) / "bin" / "vilma";
   const fs::path dataset = RoomSession();

@@ -59,6 +59,7 @@
 #include "vilma/core/rig.h"
 #include "vilma/localizer/feature_tracker.h"
 #include "vilma/mapping/map_builder_options.h"
+#include "vilma/mapping/track_refinement.h"
 #include "vilma/mapping/triangulation.h"
 #include "vilma/mapstore/map_io.h"
 #include "vilma/mapstore/vi_map.h"
@@ -85,6 +86,10 @@ struct MapBuilderStats {
   int64_t imu_edges_held = 0;       // completed by Finish() with a held last sample
   int64_t keypoints = 0;            // over all vertices and cameras
   int64_t tracked_keypoints = 0;    // keypoints that continue a track
+  // options.track_refinement: observations moved to their track's aligned position, and
+  // alignments that failed and split their track (track_refinement.h).
+  int64_t refined_keypoints = 0;
+  int64_t refinement_splits = 0;
   int64_t tracks = 0;               // tracks with >= 2 observations
   int64_t single_observations = 0;  // tracks seen once (no landmark)
   // Track segments closed at options.max_track_vertices / max_track_duration_s (the track's
@@ -228,6 +233,7 @@ class MapBuilder {
   mapstore::IdGenerator ids_;
   mapstore::VIMap map_;
   std::vector<std::unique_ptr<localizer::FeatureTracker>> trackers_;  // per rig camera
+  std::vector<std::unique_ptr<TrackRefiner>> refiners_;  // per rig camera, next to trackers_
 
   std::deque<ImuSample> imu_;  // from the last sample at or before the oldest needed time
   bool has_vertex_ = false;

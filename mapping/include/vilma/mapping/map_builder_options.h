@@ -11,6 +11,7 @@
 
 #include "vilma/core/yaml_io.h"
 #include "vilma/localizer/feature_options.h"
+#include "vilma/mapping/track_refinement.h"
 
 namespace vilma::mapping {
 
@@ -46,6 +47,9 @@ struct MapBuilderOptions {
   // Rig camera indices whose images get keyframe features; empty: every camera of the rig.
   std::vector<int> cameras;
   localizer::KeyframeFeatureOptions features;
+  // Track-consistent sub-pixel keypoints: each observation of a track aligned to the track's
+  // first one (track_refinement.h; docs/mapping.md "Track refinement").
+  TrackRefinementOptions track_refinement;
   TriangulationOptions triangulation;
   LandmarkQualityOptions landmark_quality;
   // Compact maps (docs/mapping.md "Compact maps"), what Finish() stores:

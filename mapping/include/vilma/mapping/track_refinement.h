@@ -1,0 +1,144 @@
+// Track-consistent sub-pixel keypoints for the map builder (docs/mapping.md "Track refinement";
+// issue 12, docs/optimization.md "Street").
+//
+// The builder's tracker re-detects keypoints in every keyframe and matches descriptors, so each
+// observation of a track carries the detector's own placement error for that view: an integer
+// pixel (or cornerSubPix's point), ~1.5 px inside a corner, which stays while the feature moves
+// by less than a pixel and then jumps. That error is correlated along the track and bends the
+// optimized trajectory (optvi). Here every observation of a track after the first is moved to
+// where the track's reference patch (sampled around its first observation) aligns in the
+// current keyframe image, so that all observations of a track point at the same physical
+// point: the first observation's placement error becomes part of the landmark's definition
+// (a constant offset on the surface), and what is left is the alignment's own noise.
+//
+// Alignment (Lucas-Kanade, forward additive; Baker & Matthews, IJCV 2004, sec. 2): parameters
+// the patch centre c in the current image, the 2x2 warp A (affine mode; identity in
+// translation mode) and a gain g and offset b for the brightness; minimized over the patch's
+// samples o in {-h..h}^2
+//   E = sum_o ( I(c + A o) - (g T(o) + b) )^2
+// with T the reference samples and I the current image, bilinear, by Gauss-Newton:
+//   dr/dc = grad I,  dr/dA_ij = (grad I)_i o_j,  dr/dg = -T(o),  dr/db = -1.
+// It starts from the previous observation's aligned centre moved by the detector's motion
+// between the two keyframes (c0 = c_prev + u_det - u_det_prev: the detector's own offset
+// cancels) and the previous warp. An alignment that fails (leaves the image, does not
+// converge, moves farther than max_shift_px from c0, keeps a large photometric error, or
+// degenerates the warp) splits the track: the observation keeps the detector's position and
+// starts a new track with itself as the reference.
+#pragma once
+
+#include <Eigen/Core>
+#include <cstdint>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+namespace vilma::mapping {
+
+struct TrackRefinementOptions {
+  // "none": the detector's positions (tracks as the tracker makes them); "translation": the
+  // reference patch aligned by its centre only (warp held at identity); "affine": centre and a
+  // 2x2 warp (the patch's perspective change along the track: scale, shear).
+  std::string method = "none";
+  int patch_half_size_px = 7;    // the patch is (2 h + 1)^2 samples [px]
+  int max_iterations = 30;       // Gauss-Newton iterations at most
+  double convergence_px = 0.005; // stop when no patch corner moves farther in a step [px]
+  // Split the track when the aligned centre lies farther than this from the start c0 [px].
+  double max_shift_px = 2.0;
+  // Split the track when the aligned position lies farther than this from the detector's
+  // keypoint in the same keyframe [px] (0: no limit). At the first observation the two
+  // coincide; the detector's offset from a physical point stays within its own placement
+  // noise (integer FAST: up to ~1.4 px; cornerSubPix: ~0.1 px), so a larger offset means the
+  // patch slides (a patch across two surfaces, whose one affine warp fits neither).
+  double max_offset_px = 0.0;
+  // Split the track when the RMS photometric error after gain and offset is above this
+  // [grey levels].
+  double max_error_grey = 12.0;
+  // Split when a singular value of the warp A leaves [1 / max_warp_scale, max_warp_scale]
+  // (the patch shrank or grew that much since the reference: a new reference is better).
+  double max_warp_scale = 2.0;
+  // Empty when valid, else "field: expectation".
+  std::string Validate() const;
+  bool enabled() const { return method != "none"; }
+};
+
+// An 8-bit grey image as float with its central-difference gradients, for sampling.
+struct GradientImage {
+  cv::Mat intensity;  // CV_32F
+  cv::Mat grad_x;     // CV_32F, dI/du [grey/px]
+  cv::Mat grad_y;     // CV_32F, dI/dv
+  // Throws std::invalid_argument unless `grey` is a non-empty CV_8UC1 image.
+  static GradientImage FromGrey(const cv::Mat& grey);
+};
+
+// The reference samples T(o) of a track, row-major over o = (x, y), x fastest.
+struct PatchTemplate {
+  int half_size = 0;
+  std::vector<float> samples;
+  // Samples `image` bilinearly at uv + o; false when a sample (with the gradient's border)
+  // leaves the image.
+  bool Extract(const GradientImage& image, const Eigen::Vector2d& uv, int half_size);
+};
+
+struct PatchAlignment {
+  enum class Status {
+    kOk, kLeftImage, kNotConverged, kTooFar, kLargeError, kBadWarp, kSingular, kOffset
+  };
+  Status status = Status::kNotConverged;
+  Eigen::Vector2d center = Eigen::Vector2d::Zero();  // in the current image [px]
+  Eigen::Matrix2d warp = Eigen::Matrix2d::Identity();
+  double gain = 1.0;
+  double offset = 0.0;
+  double rms_error = 0.0;  // RMS of the residuals at the solution [grey levels]
+  int iterations = 0;
+  bool ok() const { return status == Status::kOk; }
+};
+const char* PatchAlignmentStatusName(PatchAlignment::Status status);
+
+// Aligns `patch` in `image` from centre c0 and warp A0 (see the header comment).
+PatchAlignment AlignPatchTemplate(const PatchTemplate& patch, const GradientImage& image,
+                                  const Eigen::Vector2d& c0, const Eigen::Matrix2d& A0,
+                                  const TrackRefinementOptions& options);
+
+struct TrackRefinementStats {
+  int64_t refined = 0;  // observations moved to the aligned position
+  int64_t splits = 0;   // alignments that failed: a new track started there
+  int64_t split_by_status[8] = {};  // per PatchAlignment::Status
+  double shift_sum_px = 0.0;        // sum of |aligned - detected| over the refined ones
+};
+
+// The refinement of one camera's tracks, keyframe by keyframe (the map builder holds one per
+// camera, next to its FeatureTracker). Track ids: a tracker id is kept as long as the track is
+// not split; a split track continues under a new id from `split_id_base` upwards (which must
+// not overlap the tracker's ids).
+class TrackRefiner {
+ public:
+  TrackRefiner(const TrackRefinementOptions& options, int64_t split_id_base);
+
+  // `image`: the keyframe (8-bit grey); `tracker_ids`: the tracker's track id per keypoint;
+  // `uv`: the detector's positions, replaced by the aligned ones; `track_ids`: set to the
+  // builder's track id per keypoint. Tracks that this keyframe does not continue are
+  // forgotten (the tracker continues tracks from the previous keyframe only).
+  void Refine(const cv::Mat& image, const std::vector<int64_t>& tracker_ids,
+              std::vector<Eigen::Vector2d>* uv, std::vector<int64_t>* track_ids);
+  // Forgets every track (the tracker was reset).
+  void Reset() { tracks_.clear(); }
+  const TrackRefinementStats& stats() const { return stats_; }
+
+ private:
+  struct Track {
+    int64_t id = 0;                  // the builder's track id
+    bool has_patch = false;
+    PatchTemplate patch;             // reference samples
+    Eigen::Vector2d detected_uv;     // the detector's position in the last keyframe
+    Eigen::Vector2d aligned_uv;      // the stored (aligned) position in the last keyframe
+    Eigen::Matrix2d warp = Eigen::Matrix2d::Identity();
+  };
+  TrackRefinementOptions options_;
+  int64_t next_split_id_;
+  std::unordered_map<int64_t, Track> tracks_;  // by tracker id
+  TrackRefinementStats stats_;
+};
+
+}  // namespace vilma::mapping

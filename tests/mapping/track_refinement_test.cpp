@@ -1,0 +1,285 @@
+#include "vilma/mapping/track_refinement.h"
+
+#include <Eigen/LU>
+#include <catch2/catch.hpp>
+#include <cmath>
+#include <vector>
+
+using namespace vilma::mapping;
+
+namespace {
+
+// A smooth texture defined everywhere: one Gaussian blob per 6 px cell (position, size and
+// amplitude from a hash of the cell and the seed) on a grey base, so that an image of it under
+// any affine map is exact: pixel (u, v) shows the texture at M^-1 ((u, v) - t).
+struct BlobTexture {
+  static constexpr double kCell = 6.0;
+  uint64_t seed;
+  explicit BlobTexture(int s) : seed(static_cast<uint64_t>(s) * 0x9E3779B97F4A7C15ULL + 1) {}
+  static double Unit(uint64_t h) {  // splitmix64 -> [0, 1)
+    h += 0x9E3779B97F4A7C15ULL;
+    h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    h = (h ^ (h >> 27)) * 0x94D049BB133111EBULL;
+    h ^= h >> 31;
+    return static_cast<double>(h >> 11) * (1.0 / 9007199254740992.0);
+  }
+  double operator()(double x, double y) const {
+    double v = 128.0;
+    const int cx = static_cast<int>(std::floor(x / kCell));
+    const int cy = static_cast<int>(std::floor(y / kCell));
+    for (int j = cy - 2; j <= cy + 2; ++j) {
+      for (int i = cx - 2; i <= cx + 2; ++i) {
+        const uint64_t h = seed ^ (static_cast<uint64_t>(static_cast<uint32_t>(i)) << 32) ^
+                           static_cast<uint64_t>(static_cast<uint32_t>(j)) * 0x2545F4914F6CDD1DULL;
+        const double bx = (i + Unit(h)) * kCell;
+        const double by = (j + Unit(h + 1)) * kCell;
+        const double sigma = 1.6 + 1.8 * Unit(h + 2);
+        const double amplitude = -50.0 + 100.0 * Unit(h + 3);
+        const double dx = x - bx, dy = y - by;
+        v += amplitude * std::exp(-0.5 * (dx * dx + dy * dy) / (sigma * sigma));
+      }
+    }
+    return v;
+  }
+};
+
+// The texture seen through u = M x + t, brightness gain * I + offset, 8-bit.
+cv::Mat Render(const BlobTexture& tex, int width, int height, const Eigen::Matrix2d& M,
+               const Eigen::Vector2d& t, double gain = 1.0, double offset = 0.0) {
+  cv::Mat image(height, width, CV_8UC1);
+  const Eigen::Matrix2d M_inv = M.inverse();
+  for (int v = 0; v < height; ++v) {
+    for (int u = 0; u < width; ++u) {
+      const Eigen::Vector2d x = M_inv * (Eigen::Vector2d(u, v) - t);
+      const double value = gain * tex(x.x(), x.y()) + offset;
+      image.at<uint8_t>(v, u) = cv::saturate_cast<uint8_t>(std::lround(value));
+    }
+  }
+  return image;
+}
+
+TrackRefinementOptions Options(const std::string& method) {
+  TrackRefinementOptions o;
+  o.method = method;
+  return o;
+}
+
+}  // namespace
+
+TEST_CASE("track refinement options: defaults valid, bad values named", "[mapping][refine]") {
+  TrackRefinementOptions o;
+  CHECK(o.Validate().empty());
+  CHECK_FALSE(o.enabled());
+  o.method = "affine";
+  CHECK(o.Validate().empty());
+  CHECK(o.enabled());
+  o.method = "klt";
+  CHECK(o.Validate().find("method") == 0);
+  o = TrackRefinementOptions();
+  o.patch_half_size_px = 1;
+  CHECK(o.Validate().find("patch_half_size_px") == 0);
+  o = TrackRefinementOptions();
+  o.max_warp_scale = 1.0;
+  CHECK(o.Validate().find("max_warp_scale") == 0);
+  o = TrackRefinementOptions();
+  o.max_offset_px = -1.0;
+  CHECK(o.Validate().find("max_offset_px") == 0);
+  o = TrackRefinementOptions();
+  o.convergence_px = 0.0;
+  CHECK(o.Validate().find("convergence_px") == 0);
+}
+
+TEST_CASE("AlignPatchTemplate finds a sub-pixel shift under a brightness change",
+          "[mapping][refine]") {
+  const BlobTexture tex(3);
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const GradientImage ref = GradientImage::FromGrey(Render(tex, 200, 160, I2, {0, 0}));
+  const Eigen::Vector2d shift(0.37, -0.61);
+  const GradientImage cur =
+      GradientImage::FromGrey(Render(tex, 200, 160, I2, shift, 1.15, -8.0));
+  const TrackRefinementOptions o = Options("translation");
+  double worst = 0.0;
+  int aligned = 0;
+  for (int y = 40; y <= 120; y += 20) {
+    for (int x = 40; x <= 160; x += 20) {
+      PatchTemplate patch;
+      REQUIRE(patch.Extract(ref, Eigen::Vector2d(x, y), o.patch_half_size_px));
+      // Start from the integer pixel nearest the truth, as a detector would report it.
+      const Eigen::Vector2d truth = Eigen::Vector2d(x, y) + shift;
+      const Eigen::Vector2d c0(std::round(truth.x()), std::round(truth.y()));
+      const PatchAlignment a = AlignPatchTemplate(patch, cur, c0, I2, o);
+      INFO("at " << x << "," << y << ": " << PatchAlignmentStatusName(a.status));
+      REQUIRE(a.ok());
+      ++aligned;
+      worst = std::max(worst, (a.center - truth).norm());
+      CHECK(a.gain == Approx(1.15).margin(0.07));  // bilinear sampling blurs: a lower contrast
+    }
+  }
+  INFO(aligned << " patches, worst error " << worst << " px");
+  // Bilinear interpolation of both images and 8-bit rounding: a few hundredths of a pixel.
+  CHECK(worst < 0.05);
+}
+
+TEST_CASE("AlignPatchTemplate: affine follows a scaled and sheared patch, translation does not",
+          "[mapping][refine]") {
+  const BlobTexture tex(5);
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const GradientImage ref = GradientImage::FromGrey(Render(tex, 240, 200, I2, {0, 0}));
+  Eigen::Matrix2d M;
+  M << 1.35, 0.12, -0.05, 1.25;  // the surface approached and tilted
+  const Eigen::Vector2d t(-30.3, -24.8);
+  const GradientImage cur = GradientImage::FromGrey(Render(tex, 240, 200, M, t));
+  const TrackRefinementOptions affine = Options("affine");
+  const TrackRefinementOptions translation = Options("translation");
+  double worst_affine = 0.0;
+  int translation_ok_and_close = 0, n = 0;
+  for (int y = 70; y <= 130; y += 15) {
+    for (int x = 70; x <= 150; x += 20) {
+      PatchTemplate patch;
+      REQUIRE(patch.Extract(ref, Eigen::Vector2d(x, y), affine.patch_half_size_px));
+      const Eigen::Vector2d truth = M * Eigen::Vector2d(x, y) + t;
+      const Eigen::Vector2d c0 = truth + Eigen::Vector2d(0.8, -0.6);
+      // The previous keyframe's warp: part of the way there.
+      const Eigen::Matrix2d A0 = Eigen::Matrix2d::Identity() + 0.8 * (M - I2);
+      const PatchAlignment a = AlignPatchTemplate(patch, cur, c0, A0, affine);
+      INFO("at " << x << "," << y << ": " << PatchAlignmentStatusName(a.status));
+      REQUIRE(a.ok());
+      worst_affine = std::max(worst_affine, (a.center - truth).norm());
+      CHECK((a.warp - M).norm() < 0.05);
+      const PatchAlignment b = AlignPatchTemplate(patch, cur, c0, I2, translation);
+      if (b.ok() && (b.center - truth).norm() < 0.05) ++translation_ok_and_close;
+      ++n;
+    }
+  }
+  INFO("affine worst " << worst_affine << " px; translation within 0.05 px: "
+                       << translation_ok_and_close << " of " << n);
+  CHECK(worst_affine < 0.05);
+  CHECK(translation_ok_and_close < n / 2);
+}
+
+TEST_CASE("AlignPatchTemplate rejects another texture and a patch leaving the image",
+          "[mapping][refine]") {
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const GradientImage ref = GradientImage::FromGrey(Render(BlobTexture(7), 160, 120, I2, {0, 0}));
+  const GradientImage other =
+      GradientImage::FromGrey(Render(BlobTexture(8), 160, 120, I2, {0, 0}));
+  const TrackRefinementOptions o = Options("affine");
+  int rejected = 0, n = 0;
+  for (int y = 30; y <= 90; y += 15) {
+    for (int x = 30; x <= 130; x += 25) {
+      PatchTemplate patch;
+      REQUIRE(patch.Extract(ref, Eigen::Vector2d(x, y), o.patch_half_size_px));
+      if (!AlignPatchTemplate(patch, other, Eigen::Vector2d(x, y), I2, o).ok()) ++rejected;
+      ++n;
+    }
+  }
+  INFO(rejected << " of " << n << " rejected");
+  CHECK(rejected >= n * 9 / 10);
+  PatchTemplate patch;
+  REQUIRE(patch.Extract(ref, Eigen::Vector2d(80, 60), o.patch_half_size_px));
+  CHECK(AlignPatchTemplate(patch, ref, Eigen::Vector2d(5, 60), I2, o).status ==
+        PatchAlignment::Status::kLeftImage);
+  CHECK_FALSE(patch.Extract(ref, Eigen::Vector2d(3, 60), o.patch_half_size_px));
+}
+
+TEST_CASE("TrackRefiner: observations follow the track's first one, a failure splits the track",
+          "[mapping][refine]") {
+  // A surface approached over 12 keyframes (scale 1 -> 1.5) and drifting sideways; keypoints
+  // "detected" at the integer pixel nearest each point's image (a quantization error that
+  // persists while the image moves by less than a pixel), tracker ids 10, 11, ...
+  const BlobTexture tex(11);
+  const int width = 320, height = 240;
+  const std::vector<Eigen::Vector2d> points = {{120, 100}, {160, 120}, {200, 110}, {150, 140},
+                                               {180, 90}};
+  const int64_t split_base = int64_t{1} << 39;
+  TrackRefiner refiner(Options("affine"), split_base);
+  std::vector<std::vector<Eigen::Vector2d>> stored;
+  const Eigen::Vector2d center(160, 120);
+  double worst = 0.0;
+  for (int f = 0; f < 12; ++f) {
+    const double s = 1.0 + 0.5 * f / 11.0;
+    const Eigen::Matrix2d M = s * Eigen::Matrix2d::Identity();
+    const Eigen::Vector2d t = center - M * center + Eigen::Vector2d(0.23 * f, -0.17 * f);
+    const cv::Mat image = Render(tex, width, height, M, t);
+    std::vector<int64_t> tracker_ids;
+    std::vector<Eigen::Vector2d> uv;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      const Eigen::Vector2d p = M * points[i] + t;
+      tracker_ids.push_back(10 + static_cast<int64_t>(i));
+      uv.emplace_back(std::round(p.x()), std::round(p.y()));
+    }
+    std::vector<int64_t> ids;
+    refiner.Refine(image, tracker_ids, &uv, &ids);
+    REQUIRE(ids == tracker_ids);  // no split
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      // Where the first observation's (integer) pixel lies on the surface, seen now.
+      const Eigen::Vector2d first(std::round(points[i].x()), std::round(points[i].y()));
+      const Eigen::Vector2d truth = M * first + t;
+      worst = std::max(worst, (uv[i] - truth).norm());
+    }
+  }
+  INFO("worst error against the first observation's point: " << worst << " px");
+  CHECK(worst < 0.05);
+  CHECK(refiner.stats().refined == 11 * 5);
+  CHECK(refiner.stats().splits == 0);
+
+  // Another texture under the same tracks: every alignment fails, each track continues under a
+  // new id from the split base, and the keypoints keep the detector's positions.
+  const cv::Mat other = Render(BlobTexture(12), width, height, Eigen::Matrix2d::Identity(), {0, 0});
+  std::vector<int64_t> tracker_ids = {10, 11, 12, 13, 14, 99};
+  std::vector<Eigen::Vector2d> uv = {{120, 100}, {160, 120}, {200, 110}, {150, 140}, {180, 90},
+                                     {100, 100}};
+  const std::vector<Eigen::Vector2d> detected = uv;
+  std::vector<int64_t> ids;
+  refiner.Refine(other, tracker_ids, &uv, &ids);
+  CHECK(uv == detected);
+  for (std::size_t i = 0; i < 5; ++i) CHECK(ids[i] == split_base + static_cast<int64_t>(i));
+  CHECK(ids[5] == 99);  // a new tracker track keeps its id
+  CHECK(refiner.stats().splits == 5);
+  // The split tracks continue under their new ids.
+  refiner.Refine(other, tracker_ids, &uv, &ids);
+  for (std::size_t i = 0; i < 5; ++i) CHECK(ids[i] == split_base + static_cast<int64_t>(i));
+  CHECK(refiner.stats().splits == 5);
+}
+
+TEST_CASE("TrackRefiner with method none changes nothing", "[mapping][refine]") {
+  TrackRefiner refiner(Options("none"), 1000);
+  const cv::Mat image(100, 100, CV_8UC1, cv::Scalar(7));
+  std::vector<Eigen::Vector2d> uv = {{10, 20}, {30.5, 40}};
+  const std::vector<Eigen::Vector2d> before = uv;
+  std::vector<int64_t> ids;
+  refiner.Refine(image, {3, -1}, &uv, &ids);
+  CHECK(uv == before);
+  CHECK(ids == std::vector<int64_t>{3, -1});
+}
+
+TEST_CASE("TrackRefiner: max_offset_px splits a track whose aligned point leaves the detector's",
+          "[mapping][refine]") {
+  const BlobTexture tex(21);
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const cv::Mat first = Render(tex, 200, 160, I2, {0, 0});
+  const Eigen::Vector2d shift(3.3, -2.2);
+  const cv::Mat second = Render(tex, 200, 160, I2, shift);
+  for (const double max_offset : {0.0, 2.0, 1.0}) {
+    TrackRefinementOptions o = Options("affine");
+    o.max_offset_px = max_offset;
+    TrackRefiner refiner(o, 1000);
+    std::vector<Eigen::Vector2d> uv = {{100, 80}};
+    std::vector<int64_t> ids;
+    refiner.Refine(first, {7}, &uv, &ids);
+    // The detector reports the point 1.5 px off (a corner of another surface, or a slid one).
+    const Eigen::Vector2d detected = Eigen::Vector2d(100, 80) + shift + Eigen::Vector2d(1.5, 0.0);
+    uv = {detected};
+    refiner.Refine(second, {7}, &uv, &ids);
+    INFO("max_offset_px " << max_offset);
+    if (max_offset == 1.0) {
+      CHECK(ids[0] == 1000);
+      CHECK(uv[0] == detected);
+      CHECK(refiner.stats().split_by_status[static_cast<int>(PatchAlignment::Status::kOffset)] ==
+            1);
+    } else {
+      CHECK(ids[0] == 7);
+      CHECK((uv[0] - (Eigen::Vector2d(100, 80) + shift)).norm() < 0.05);
+    }
+  }
+}
