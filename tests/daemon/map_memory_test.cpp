@@ -266,6 +266,30 @@ StreamedRun Stream(const SlidingStream& stream, const mapping::MapBuilderOptions
   return run;
 }
 
+TEST_CASE("map memory: with track refinement the streamed mission is the whole one",
+          "[daemon][mapping][memory]") {
+  // Refinement moves keypoints and splits tracks (new ids) inside AddFrame, before either
+  // memory mode sees the track ids: the streamed receiver's map must equal the whole mission.
+  const SlidingStream stream(200);
+  mapping::MapBuilderOptions options;
+  options.track_refinement.method = "affine";
+  MapBuilder whole(stream.rig, options, 7, "stand");
+  for (int i = 0; i < stream.size(); ++i) {
+    SlidingStream::AddImu(&whole, i);
+    REQUIRE(whole.AddFrame(stream.State(i), {stream.Image(i)}));
+  }
+  whole.Finish();
+  const StreamedRun run = Stream(stream, options, 0);
+  INFO(whole.stats().FullReport());
+  CHECK(whole.stats().refined_keypoints > whole.stats().tracked_keypoints / 2);
+  CHECK(run.stats.refined_keypoints == whole.stats().refined_keypoints);
+  CHECK(run.stats.refinement_splits == whole.stats().refinement_splits);
+  CHECK(run.stats.landmarks == whole.stats().landmarks);
+  CHECK(run.stats.landmarks_good == whole.stats().landmarks_good);
+  CHECK(mapstore::CheckMapConsistency(run.receiver).ok());
+  CheckSameMission(whole.map(), run.receiver, whole.mission_id());
+}
+
 TEST_CASE("map memory: a robot standing still holds a bounded mission (tracks cut at a length)",
           "[daemon][mapping][memory]") {
   // 20 vertices sliding, 200 standing still (20 s at 10 Hz: every track continues), 20 sliding.
