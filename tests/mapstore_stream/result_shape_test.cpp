@@ -17,15 +17,17 @@ TEST_CASE("mapstored's counters: one-line BriefReport, a FullReport line per cou
   c.chunks_duplicate = 2;
   c.fsyncs = 3;
   c.finalize_errors = 1;
+  c.stream_repairs = 4;
   CHECK(c.BriefReport() ==
         "12 chunks received, 0 journaled, 2 duplicate, 0 out of order, 3 fsyncs, 0 acks");
   const std::string full = c.FullReport();
   CHECK(vilma::ReportShapeError(c) == "");
   CHECK_THAT(full, Catch::Contains("\nchunks_received 12\n") &&
                        Catch::Contains("\nfinalize_errors 1\n") &&
+                       Catch::Contains("\nstream_repairs 4\n") &&
                        Catch::StartsWith("missions_completed 0\n"));
   int lines = 0;
   c.VisitCounters([&lines](const char*, uint64_t) { ++lines; });
-  CHECK(lines == 16);
+  CHECK(lines == 17);  // 16 + stream_repairs (2026-11-27)
   CHECK(static_cast<int>(std::count(full.begin(), full.end(), '\n')) == lines);
 }
