@@ -484,7 +484,6 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
       std::string examples;
       for (std::size_t i = 0; i < repairs.examples.size() && i < 3; ++i) examples += "; " + repairs.examples[i];
       log_("mission " + m.hex + ": the stream needed repairs: " + repairs.Summary() + examples);
-      counters_.stream_repairs += repairs.Total();
     }
     // The folder appears whole or not at all: saved into a staging folder beside the journals
     // (same file system), then renamed into place. A kill -9 during SaveMap left a
@@ -501,6 +500,7 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
     }
     SyncDirectory(options_.root);
     SyncDirectory(JournalDir());
+    counters_.stream_repairs += repairs.Total();  // once per saved folder, not per retry
   } catch (const std::exception& e) {
     ++counters_.finalize_errors;
     const bool full = std::strstr(e.what(), std::strerror(ENOSPC)) != nullptr;
