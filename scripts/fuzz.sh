@@ -12,12 +12,17 @@
 # findings/stalls/) and the harness goes on with the rest of its budget; one that is slow by
 # itself is a finding. A campaign can be stopped early with SIGINT to the harness processes
 # (not to fuzz.sh): each prints its row, "interrupted", with the executions done so far.
+# A harness that sleeps without using any CPU for --watchdog seconds (libFuzzer's own timeout
+# handler deadlocked, seen once at SCHED_IDLE) is killed and counted as "stuck"; its pass's
+# executions up to its last status line count, and the campaign goes on.
 #
-# Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [--timeout S] [HARNESS ...]
+# Usage: scripts/fuzz.sh [--minutes N] [--runs N] [--jobs J] [--timeout S] [--watchdog S] [HARNESS ...]
 #   --minutes N   per harness (default 1)
 #   --runs N      per harness, instead of a time limit (e.g. 10000000)
 #   --jobs J      harnesses run in parallel (default 1)
 #   --timeout S   an input that runs longer than S seconds is a hang (default 1)
+#   --watchdog S  a harness asleep without using CPU for S seconds is stuck in libFuzzer's
+#                 timeout handler: killed, counted ("stuck"), the campaign goes on (default 120)
 #   HARNESS       fuzz_lcm_messages fuzz_mission_stream ... (default: all, see fuzz/CMakeLists.txt)
 #   VILMA_FUZZ_DIR   corpora and findings (default ~/.cache/vilma/fuzz)
 #   VILMA_BUILD_LOCK a file to flock around the build (a machine shared by several builders)
@@ -34,6 +39,7 @@ minutes=1
 runs=""
 jobs=1
 timeout_s=1
+watchdog_s=120
 harnesses=()
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -41,7 +47,8 @@ while [ $# -gt 0 ]; do
     --runs) runs=$2; shift 2 ;;
     --jobs) jobs=$2; shift 2 ;;
     --timeout) timeout_s=$2; shift 2 ;;
-    -h|--help) sed -n '2,27p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    --watchdog) watchdog_s=$2; shift 2 ;;
+    -h|--help) sed -n '2,/^set -euo/p' "$0" | sed '$d' | sed 's/^# \{0,1\}//'; exit 0 ;;
     -*) echo "fuzz.sh: unknown option $1 (see --help)" >&2; exit 2 ;;
     *) harnesses+=("$1"); shift ;;
   esac
@@ -50,6 +57,7 @@ done
 [ -z "$runs" ] || [[ "$runs" =~ ^[0-9]+$ ]] || { echo "fuzz.sh: --runs: expected an integer" >&2; exit 2; }
 [[ "$jobs" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --jobs: expected an integer >= 1" >&2; exit 2; }
 [[ "$timeout_s" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --timeout: expected whole seconds >= 1" >&2; exit 2; }
+[[ "$watchdog_s" =~ ^[1-9][0-9]*$ ]] || { echo "fuzz.sh: --watchdog: expected whole seconds >= 1" >&2; exit 2; }
 command -v clang++ > /dev/null || { echo "fuzz.sh: clang++ missing (apt-get install clang libfuzzer-14-dev)" >&2; exit 1; }
 
 # The harness list of fuzz/CMakeLists.txt, comments stripped (they may hold parentheses).
@@ -89,7 +97,7 @@ run_one() {
   local start=$(date +%s)
   touch "$dir/run-start"  # findings newer than this are this run's
   mkdir -p "$dir/findings/stalls"
-  local execs=0 rate_sum=0 rate_n=0 stalls=0 status=0
+  local execs=0 rate_sum=0 rate_n=0 stalls=0 stuck=0 status=0
   # Each pass fuzzes with what is left of the budget; a pass that ends on a timeout which does
   # not reproduce (a stall of a busy machine) is followed by another.
   while :; do
@@ -102,17 +110,53 @@ run_one() {
     touch "$dir/pass-start"
     # -timeout: an input that takes longer is a hang; -rss_limit_mb: a decoder must not
     # allocate what a field claims before checking it against the input's size.
-    set +e
     "$build_dir/fuzz/$h" "${limit[@]}" -timeout="$timeout_s" -rss_limit_mb=2048 \
       -print_final_stats=1 -artifact_prefix="$dir/findings/" "$dir/corpus" "$dir/seeds" \
-      "${regressions[@]}" > "$dir/last-run.log" 2>&1
+      "${regressions[@]}" > "$dir/last-run.log" 2>&1 &
+    local pid=$! stuck_pass=0
+    # Watchdog: libFuzzer's SIGALRM handler is not async-signal-safe; a harness starved past its
+    # wall-clock limit can deadlock in it (2026-11-27: 20 min on a futex, no artifact). Such a
+    # process sleeps (state S, not R as a merely starved one) and uses no CPU: after
+    # $watchdog_s seconds of that it is killed, its log kept in findings/stuck/, and the
+    # campaign goes on with another pass (column "stuck").
+    local last_cpu=-1 still=0
+    while kill -0 $pid 2> /dev/null; do
+      sleep 5
+      local stat=$(awk '{ print $3, $14 + $15 }' /proc/$pid/stat 2> /dev/null) || break
+      [ -n "$stat" ] || break
+      if [ "${stat% *}" != R ] && [ "${stat#* }" = "$last_cpu" ]; then
+        still=$(( still + 5 ))
+        if [ $still -ge $watchdog_s ]; then
+          kill -KILL $pid 2> /dev/null || true
+          stuck_pass=1
+          break
+        fi
+      else
+        still=0
+      fi
+      last_cpu=${stat#* }
+    done
+    set +e
+    { wait $pid; } 2> /dev/null  # (bash's "Killed" line for a watchdog kill)
     status=$?
     set -e
     local pass_execs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
+    if [ $stuck_pass -eq 1 ]; then
+      # No final stats: the last "#N" status line is the pass's count.
+      pass_execs=$(grep -ao '^#[0-9]*' "$dir/last-run.log" | tail -1 | tr -d '#' || true)
+      mkdir -p "$dir/findings/stuck"
+      cp "$dir/last-run.log" "$dir/findings/stuck/pass-$(date +%Y%m%dT%H%M%S).log"
+      stuck=$(( stuck + 1 ))
+    fi
     local pass_rate=$(grep -o 'stat::average_exec_per_sec: *[0-9]*' "$dir/last-run.log" | grep -o '[0-9]*$' || true)
     execs=$(( execs + ${pass_execs:-0} ))
     [ -n "$pass_rate" ] && { rate_sum=$(( rate_sum + pass_rate )); rate_n=$(( rate_n + 1 )); }
     [ $status -eq 0 ] && break
+    if [ $stuck_pass -eq 1 ]; then
+      if [ -n "$runs" ]; then [ $execs -lt $runs ] || { status=0; break; }
+      else [ $(( $(date +%s) - start )) -lt $budget_s ] || { status=0; break; }; fi
+      continue
+    fi
     # 72: libFuzzer's exit after SIGINT (a campaign stopped by hand: `kill -INT` of the
     # harness processes); its final stats are summed like any pass's.
     [ $status -eq 72 ] && break
@@ -143,16 +187,16 @@ run_one() {
   local seconds=$(( $(date +%s) - start ))
   local rate=$([ $rate_n -gt 0 ] && echo $(( rate_sum / rate_n )) || echo "?")
   count() { find "$dir/findings" -maxdepth 1 -name "$1-*" -newer "$dir/run-start" 2> /dev/null | wc -l; }
-  printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "$execs" "$rate" \
+  printf '| %s | %s | %s | %s | %s | %s | %s | %s | %s | %s | %s |\n' "$h" "$execs" "$rate" \
     "$(ls "$dir/corpus" | wc -l)" "$(count crash)" "$(count timeout)" "$(count oom)" \
-    "$(count leak)" "$stalls" "$(case $status in 0) echo ok ;; 72) echo "interrupted after $seconds s" ;; *) echo "FOUND (exit $status, $seconds s): $dir/last-run.log" ;; esac)"
+    "$(count leak)" "$stalls" "$stuck" "$(case $status in 0) echo ok ;; 72) echo "interrupted after $seconds s" ;; *) echo "FOUND (exit $status, $seconds s): $dir/last-run.log" ;; esac)"
 }
 export -f run_one
-export build_dir work_dir minutes runs repo_dir timeout_s
+export build_dir work_dir minutes runs repo_dir timeout_s watchdog_s
 
 mkdir -p "$work_dir"
-echo "| harness | executions | exec/s | corpus | crashes | timeouts | oom | leaks | stalls | result |"
-echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"
+echo "| harness | executions | exec/s | corpus | crashes | timeouts | oom | leaks | stalls | stuck | result |"
+echo "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|"
 # Rows in the order the harnesses finish (a long campaign's finished rows are readable before
 # the last harness ends), then sorted.
 printf '%s\n' "${harnesses[@]}" | xargs -P "$jobs" -I{} bash -c 'run_one {}' |
