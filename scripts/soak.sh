@@ -3,7 +3,7 @@
 #   vilma-sim --live (room, session 1: an endless smooth path through the simulated room)
 #     -> vilma-estimatord in LOC mode (a localization map of session 0) with map building,
 #        streaming the mission to vilma-mapstored
-# Every 10 s it samples, for each process, RSS (/proc/<pid>/status VmRSS) and CPU % of one core
+# Every 10 s it samples, for each process, RSS (/proc/<pid>/status VmRSS; RssAnon too) and CPU % of one core
 # (utime + stime from /proc/<pid>/stat over the interval), and the load average; the daemon's and
 # mapstored's VILMA_STATUS reports (recorded with lcm-logger, read with vilma-lcm-json) add queue
 # depths, drops and latency p99. Results in ~/.cache/vilma/soak/<UTC date-time>/:
@@ -104,22 +104,26 @@ sim_seconds=$(( minutes * 60 + 30 > 3600 ? 3600 : minutes * 60 + 30 ))
   --rate "$rate" --lcm-url "$url" > "$out/sim.log" 2>&1 &
 sim=$!; pids+=("$sim")
 
-# CPU ticks (utime + stime) and RSS [kB] of a process; "0 0" once it is gone.
+# CPU ticks (utime + stime), RSS and its anonymous part (RssAnon: heap and stacks, without the
+# resident pages of mapped files such as the shared libraries) [kB] of a process; "0 0 0" once
+# it is gone.
 proc_sample() {
-  local stat rss
-  stat=$(cat "/proc/$1/stat" 2> /dev/null) || { echo "0 0"; return; }
+  local stat mem
+  stat=$(cat "/proc/$1/stat" 2> /dev/null) || { echo "0 0 0"; return; }
   stat=${stat##*) }  # the fields after "(comm) ", which may hold spaces
-  rss=$(awk '/^VmRSS:/ { print $2 }' "/proc/$1/status" 2> /dev/null || echo 0)
-  awk -v rss="${rss:-0}" '{ print $12 + $13, rss }' <<< "$stat"
+  mem=$(awk '/^VmRSS:/ { r = $2 } /^RssAnon:/ { a = $2 } END { print r + 0, a + 0 }' \
+    "/proc/$1/status" 2> /dev/null || echo "0 0")
+  awk -v mem="$mem" '{ print $12 + $13, mem }' <<< "$stat"
 }
 tck=$(getconf CLK_TCK)
 names=(sim daemon mapstored)
 procs=("$sim" "$daemon" "$store")
 header="t_s,wall_us,load1"
 for n in "${names[@]}"; do header+=",${n}_rss_mb,${n}_cpu_pct"; done
+for n in "${names[@]}"; do header+=",${n}_anon_mb"; done
 echo "$header" > "$out/proc.csv"
 declare -A last_ticks
-for i in "${!procs[@]}"; do read -r t _ < <(proc_sample "${procs[$i]}"); last_ticks[$i]=$t; done
+for i in "${!procs[@]}"; do read -r t _ _ < <(proc_sample "${procs[$i]}"); last_ticks[$i]=$t; done
 start_ns=$(date +%s%N); last_ns=$start_ns
 echo "soak.sh: $minutes min, output in $out (load average now: $(cut -d' ' -f1-3 /proc/loadavg))"
 samples=$(( minutes * 6 < (sim_seconds - 5) / 10 ? minutes * 6 : (sim_seconds - 5) / 10 ))
@@ -129,13 +133,16 @@ for k in $(seq 1 "$samples"); do
   [ "$now_ns" -lt "$target_ns" ] && sleep "$(awk "BEGIN { print ($target_ns - $now_ns) / 1e9 }")"
   now_ns=$(date +%s%N)
   row="$(( (now_ns - start_ns) / 1000000000 )),$(( now_ns / 1000 )),$(cut -d' ' -f1 /proc/loadavg)"
+  anon_columns=""
   for i in "${!procs[@]}"; do
-    read -r ticks rss < <(proc_sample "${procs[$i]}")
+    read -r ticks rss anon < <(proc_sample "${procs[$i]}")
     cpu=$(awk -v d=$(( ticks - ${last_ticks[$i]} )) -v w=$(( now_ns - last_ns )) -v t="$tck" \
       'BEGIN { printf "%.1f", (w > 0 ? 100 * d / t / (w / 1e9) : 0) }')
     last_ticks[$i]=$ticks
     row+=",$(awk -v r="$rss" 'BEGIN { printf "%.1f", r / 1024 }'),$cpu"
+    anon_columns+=",$(awk -v r="${anon:-0}" 'BEGIN { printf "%.1f", r / 1024 }')"
   done
+  row+=$anon_columns
   last_ns=$now_ns
   echo "$row" >> "$out/proc.csv"
   for i in "${!procs[@]}"; do

@@ -27,6 +27,8 @@ DAEMON_LAST = ["drops", "frames_dropped_busy", "images_dropped_pool", "images_dr
                "loc_attempts", "loc_ok"]
 METRICS_MAX = ["latency_total_p99_ms", "latency_filter_p99_ms", "latency_receive_p99_ms"]
 STORE_LAST = ["chunks_journaled", "bytes_journaled", "chunks_undecodable"]
+# mapstored's heap over its malloc arenas (mallinfo2; its status since 2026-11-27, session 32).
+STORE_METRICS_LAST = ["heap_in_use_mb", "heap_free_mb"]
 
 
 def read_proc(path):
@@ -36,10 +38,12 @@ def read_proc(path):
         missing = [c for c in need if c not in (reader.fieldnames or [])]
         if missing:
             raise ValueError(f"{path}: header: expected columns {', '.join(missing)}")
+        # RssAnon columns (soak.sh since 2026-11-27 session 32): optional, older CSVs lack them.
+        optional = [f"{p}_anon_mb" for p in PROCS if f"{p}_anon_mb" in (reader.fieldnames or [])]
         rows = []
         for n, row in enumerate(reader, start=2):
             try:
-                rows.append({c: float(row[c]) for c in need})
+                rows.append({c: float(row[c]) for c in need + optional})
             except (TypeError, ValueError):
                 raise ValueError(f"{path}:{n}: expected numbers in every column")
     if not rows:
@@ -91,6 +95,8 @@ def merge(rows, reports):
         s = last["mapstored"]
         for k in STORE_LAST:
             m["mapstored_" + k] = s["counters"].get(k) if s else None
+        for k in STORE_METRICS_LAST:
+            m["mapstored_" + k] = s["metrics"].get(k) if s and "metrics" in s else None
         m["p99_values"] = [r["metrics"]["latency_total_p99_ms"] for r in window
                            if r["metrics"].get("latency_total_p99_ms") is not None
                            and r["metrics"]["latency_total_p99_ms"] > 0]
@@ -197,6 +203,29 @@ def main():
             passed = growth <= 5.0
             ok &= passed
             verdicts.append(f"RSS growth {p} {growth:+.1f} % (<= 5 %): {'PASS' if passed else 'FAIL'}")
+    if all(f"{p}_anon_mb" in base for p in PROCS):
+        # The anonymous part of RSS (heap, stacks) without the resident pages of mapped files
+        # (shared libraries, which the kernel may fault in and out): where a leak would show.
+        print()
+        print(f"| process | RssAnon at {base['t_s'] / 60:.1f} min [MB] | RssAnon at end [MB] | "
+              f"growth | RssAnon max [MB] |")
+        print("|---|---:|---:|---:|---:|")
+        for p in PROCS:
+            a0, a1 = base[f"{p}_anon_mb"], last[f"{p}_anon_mb"]
+            growth = 100.0 * (a1 - a0) / a0 if a0 > 0 else float("inf")
+            print(f"| {p} | {a0:.1f} | {a1:.1f} | {growth:+.1f} % | "
+                  f"{max(m[f'{p}_anon_mb'] for m in merged):.1f} |")
+    if base.get("mapstored_heap_in_use_mb") is not None and \
+            last.get("mapstored_heap_in_use_mb") is not None:
+        h0, h1 = base["mapstored_heap_in_use_mb"], last["mapstored_heap_in_use_mb"]
+        in_use = [m["mapstored_heap_in_use_mb"] for m in merged
+                  if m.get("mapstored_heap_in_use_mb") is not None]
+        free = [m["mapstored_heap_free_mb"] for m in merged
+                if m.get("mapstored_heap_free_mb") is not None]
+        print(f"\nmapstored heap (mallinfo2), in use: {h0:.2f} MB at {base['t_s'] / 60:.1f} min, "
+              f"{h1:.2f} MB at the end, max {max(in_use):.2f} MB; free in malloc: "
+              f"{base['mapstored_heap_free_mb']:.2f} -> {last['mapstored_heap_free_mb']:.2f} MB, "
+              f"max {max(free):.2f} MB")
     if base["map_vertices"] is not None and last["map_vertices"] is not None and \
             last["map_vertices"] > base["map_vertices"]:
         per_vertex_kb = 1024.0 * (last["daemon_rss_mb"] - base["daemon_rss_mb"]) / \

@@ -1,10 +1,14 @@
 // vilma-mapstored and vilma-mission-sender as real processes on LCM loopback (ttl=0, a port
 // per test): kill -9 of either side in mid-mission (architecture.md section 9).
 #include <catch2/catch.hpp>
+#include <lcm/lcm-cpp.hpp>
 
 #include <chrono>
+#include <map>
 #include <string>
 #include <thread>
+
+#include <vilma/status_t.hpp>
 
 #include "integration/process_util.h"
 #include "vilma/mapstore/map_io.h"
@@ -190,4 +194,39 @@ TEST_CASE("mapstored post-processes a finished mission with a console script",
   CHECK(ReadTextFile(root + "/processed_run.processed.done").rfind("exit 0", 0) == 0);
   store.Signal(SIGTERM);
   CHECK(store.Wait(10.0) == 0);
+}
+
+TEST_CASE("vilma-mapstored's VILMA_STATUS carries its heap (mallinfo2) as metrics",
+          "[integration][mapstore_stream]") {
+  if (!HaveBinaries()) return;
+  const std::string dir = FreshDir("mapstored_heap_status");
+  const std::string url = UniqueLcmUrl(false);
+  lcm::LCM lcm(url);
+  REQUIRE(lcm.good());
+  std::map<std::string, double> metrics;
+  bool have_status = false;
+  lcm.subscribeFunction(
+      "VILMA_STATUS",
+      +[](const lcm::ReceiveBuffer*, const std::string&, const vilma::status_t* s,
+          std::pair<bool*, std::map<std::string, double>*> out) {
+        if (s->node != "vilma-mapstored") return;
+        *out.first = true;
+        for (int i = 0; i < s->num_metrics; ++i) (*out.second)[s->metric_names[i]] = s->metric_values[i];
+      },
+      std::make_pair(&have_status, &metrics));
+  ChildProcess store({kMapstored, "--root", dir + "/maps", "--lcm-url", url}, dir + "/mapstored.log");
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!have_status && std::chrono::steady_clock::now() < deadline) lcm.handleTimeout(100);
+  store.Signal(SIGTERM);
+  CHECK(store.Wait(5.0) == 0);
+  REQUIRE(have_status);
+  REQUIRE(metrics.count("heap_in_use_mb") == 1);
+  REQUIRE(metrics.count("heap_free_mb") == 1);
+  REQUIRE(metrics.count("heap_mmapped_mb") == 1);
+  // An idle mapstored holds well under 100 MB of heap, and not nothing (its server, liblcm).
+  CHECK(metrics["heap_in_use_mb"] > 0.01);
+  CHECK(metrics["heap_in_use_mb"] < 100.0);
+  CHECK(metrics["heap_free_mb"] >= 0.0);
+  CHECK(metrics["heap_mmapped_mb"] >= 0.0);
+  CHECK(metrics["heap_mmapped_mb"] <= metrics["heap_in_use_mb"]);
 }

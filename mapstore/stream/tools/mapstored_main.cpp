@@ -228,7 +228,20 @@ int main(int argc, char** argv) {
     add("post_process_succeeded", post->counters().succeeded);
     add("post_process_failed", post->counters().failed);
     s.num_counters = static_cast<int32_t>(s.counter_names.size());
-    s.num_metrics = 0;
+    // The heap over every malloc arena (mallinfo2): bytes in use (live allocations, mmapped
+    // blocks included), free bytes malloc still holds, mmapped blocks [MB]. A growing RSS with
+    // a flat heap_in_use_mb is allocator fragmentation, not state that mapstored keeps (soak
+    // diagnostics, docs/reliability.md).
+    const struct mallinfo2 heap = mallinfo2();
+    auto metric = [&s](const char* name, double value) {
+      s.metric_names.push_back(name);
+      s.metric_values.push_back(value);
+    };
+    constexpr double kMiB = 1024.0 * 1024.0;
+    metric("heap_in_use_mb", static_cast<double>(heap.uordblks + heap.hblkhd) / kMiB);
+    metric("heap_free_mb", static_cast<double>(heap.fordblks) / kMiB);
+    metric("heap_mmapped_mb", static_cast<double>(heap.hblkhd) / kMiB);
+    s.num_metrics = static_cast<int32_t>(s.metric_names.size());
     lcm.publish(status_channel, &s);
   };
 
