@@ -306,6 +306,7 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
       out.scale = kp.size;
       out.orientation = kp.angle * M_PI / 180.0;
       out.score = kp.response;
+      out.sigma_px = options_.triangulation.keypoint_sigma_px;
       std::memcpy(frame.descriptors.data() + k * frame.descriptor_size_bytes,
                   r.features.descriptors.ptr<uint8_t>(static_cast<int>(k)),
                   frame.descriptor_size_bytes);
@@ -316,7 +317,12 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
       for (std::size_t k = 0; k < n; ++k) uv[k] = frame.keypoints[k].uv;
       const TrackRefinementStats before = refiner.stats();
       refiner.Refine(*image, r.track_ids, &uv, &frame.track_ids);
-      for (std::size_t k = 0; k < n; ++k) frame.keypoints[k].uv = uv[k];
+      // Every keypoint of the frame is now track-consistent (aligned to its track's first, or
+      // the first of a new track): the refinement's noise.
+      for (std::size_t k = 0; k < n; ++k) {
+        frame.keypoints[k].uv = uv[k];
+        frame.keypoints[k].sigma_px = options_.track_refinement.keypoint_sigma_px;
+      }
       stats_.refined_keypoints += refiner.stats().refined - before.refined;
       stats_.refinement_splits += refiner.stats().splits - before.splits;
     } else {
@@ -391,6 +397,7 @@ mapstore::LandmarkId MapBuilder::FinishTrack(
     t.T_M_C = v.T_M_I * cam.T_I_C;
     t.camera = &cam.camera;
     t.uv = v.frames[o.camera].keypoints[o.keypoint].uv;
+    t.sigma_px = v.frames[o.camera].keypoints[o.keypoint].sigma_px;
     obs.push_back(t);
   }
   const TriangulationResult result = Triangulate(obs, options_.triangulation);

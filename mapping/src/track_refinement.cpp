@@ -44,6 +44,9 @@ std::string TrackRefinementOptions::Validate() const {
   if (!(Finite(max_offset_px) && max_offset_px >= 0)) return "max_offset_px: expected >= 0";
   if (!(Finite(max_error_grey) && max_error_grey > 0)) return "max_error_grey: expected > 0";
   if (!(Finite(max_warp_scale) && max_warp_scale > 1)) return "max_warp_scale: expected > 1";
+  if (!(Finite(keypoint_sigma_px) && keypoint_sigma_px > 0)) {
+    return "keypoint_sigma_px: expected > 0";
+  }
   return {};
 }
 

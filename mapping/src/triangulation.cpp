@@ -81,10 +81,14 @@ TriangulationResult TriangulateLinear(const std::vector<TriangulationObservation
 
 namespace {
 
-// Sum of squared pixel residuals, J^T J and J^T r at p_M; false if p is behind a camera.
+// At p_M: the whitened cost sum |r_k|^2 / s_k^2 (the objective), the pixel cost sum |r_k|^2
+// (for the RMS error), J^T W J and J^T W r with W = diag(1 / s_k^2); s_k is the observation's
+// sigma_px, or default_sigma_px where it is 0. False if p is behind a camera.
 bool Linearize(const std::vector<TriangulationObservation>& observations,
-               const Eigen::Vector3d& p_M, double* cost, Eigen::Matrix3d* H, Eigen::Vector3d* g) {
+               const Eigen::Vector3d& p_M, double default_sigma_px, double* cost,
+               double* pixel_cost, Eigen::Matrix3d* H, Eigen::Vector3d* g) {
   *cost = 0.0;
+  *pixel_cost = 0.0;
   H->setZero();
   g->setZero();
   for (const TriangulationObservation& o : observations) {
@@ -98,11 +102,14 @@ bool Linearize(const std::vector<TriangulationObservation>& observations,
         !uv.allFinite()) {
       return false;
     }
+    const double sigma = o.sigma_px > 0.0 ? o.sigma_px : default_sigma_px;
+    const double w = 1.0 / (sigma * sigma);
     const Eigen::Vector2d r = uv - o.uv;
     const Eigen::Matrix<double, 2, 3> J = J_uv_p_C * R_C_M;
-    *cost += r.squaredNorm();
-    *H += J.transpose() * J;
-    *g += J.transpose() * r;
+    *pixel_cost += r.squaredNorm();
+    *cost += w * r.squaredNorm();
+    *H += w * J.transpose() * J;
+    *g += w * J.transpose() * r;
   }
   return true;
 }
@@ -113,10 +120,11 @@ TriangulationResult Triangulate(const std::vector<TriangulationObservation>& obs
                                 const TriangulationOptions& options) {
   TriangulationResult result = TriangulateLinear(observations);
   if (!result.ok()) return result;
-  double cost = 0.0;
+  const double s0 = options.keypoint_sigma_px;
+  double cost = 0.0, pixel_cost = 0.0;
   Eigen::Matrix3d H;
   Eigen::Vector3d g;
-  if (!Linearize(observations, result.p_M, &cost, &H, &g)) {
+  if (!Linearize(observations, result.p_M, s0, &cost, &pixel_cost, &H, &g)) {
     result.status = TriangulationStatus::kBehindCamera;
     return result;
   }
@@ -128,11 +136,13 @@ TriangulationResult Triangulate(const std::vector<TriangulationObservation>& obs
     Eigen::Vector3d dp = ldlt.solve(-g);
     if (!dp.allFinite()) break;
     bool accepted = false;
-    double new_cost = 0.0;
+    double new_cost = 0.0, new_pixel_cost = 0.0;
     Eigen::Matrix3d new_H;
     Eigen::Vector3d new_g;
     for (int halving = 0; halving < 5; ++halving, dp *= 0.5) {
-      if (Linearize(observations, result.p_M + dp, &new_cost, &new_H, &new_g) && new_cost <= cost) {
+      if (Linearize(observations, result.p_M + dp, s0, &new_cost, &new_pixel_cost, &new_H,
+                    &new_g) &&
+          new_cost <= cost) {
         accepted = true;
         break;
       }
@@ -140,17 +150,17 @@ TriangulationResult Triangulate(const std::vector<TriangulationObservation>& obs
     if (!accepted) break;
     result.p_M += dp;
     cost = new_cost;
+    pixel_cost = new_pixel_cost;
     H = new_H;
     g = new_g;
     result.iterations = it + 1;
     if (dp.norm() < options.convergence_step_m) break;
   }
-  result.rms_reprojection_error_px = std::sqrt(cost / static_cast<double>(observations.size()));
+  result.rms_reprojection_error_px =
+      std::sqrt(pixel_cost / static_cast<double>(observations.size()));
+  // H is already whitened: covariance (J^T W J)^-1.
   const Eigen::FullPivLU<Eigen::Matrix3d> lu(H);
-  if (lu.isInvertible()) {
-    const double s2 = options.keypoint_sigma_px * options.keypoint_sigma_px;
-    result.covariance_M = s2 * lu.inverse();
-  }
+  if (lu.isInvertible()) result.covariance_M = lu.inverse();
   return result;
 }
 

@@ -1,5 +1,6 @@
 #include "proto_conversion.h"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -62,6 +63,15 @@ void ToProto(const VisualFrame& f, pb::VisualFrame* out) {
     out->add_scales(k.scale);
     out->add_orientations(k.orientation);
     out->add_scores(k.score);
+  }
+  // Sigmas only when one differs from the default: a frame of default keypoints is written
+  // exactly as before the field existed (and costs no bytes).
+  const bool default_sigmas = std::all_of(f.keypoints.begin(), f.keypoints.end(), [](const Keypoint& k) {
+    return k.sigma_px == kDefaultKeypointSigmaPx;
+  });
+  if (!default_sigmas) {
+    out->mutable_keypoint_sigmas_px()->Reserve(n);
+    for (const Keypoint& k : f.keypoints) out->add_keypoint_sigmas_px(k.sigma_px);
   }
   out->set_descriptor_type(f.descriptor_type);
   out->set_descriptor_size_bytes(f.descriptor_size_bytes);
@@ -176,6 +186,9 @@ VisualFrame FromProto(const pb::VisualFrame& p, const Reader& in, const std::str
   expect_size(p.scores_size(), n, "scores");
   expect_size(p.track_ids_size(), n, "track_ids");
   expect_size(p.landmark_ids_size(), 2 * n, "landmark_ids");
+  // Optional (added later): absent in older maps, whose keypoints get the default sigma.
+  const bool has_sigmas = p.keypoint_sigmas_px_size() > 0;
+  if (has_sigmas) expect_size(p.keypoint_sigmas_px_size(), n, "keypoint_sigmas_px");
   f.descriptor_type = p.descriptor_type();
   f.descriptor_size_bytes = p.descriptor_size_bytes();
   if (p.descriptors().size() != static_cast<std::size_t>(n) * f.descriptor_size_bytes) {
@@ -191,6 +204,13 @@ VisualFrame FromProto(const pb::VisualFrame& p, const Reader& in, const std::str
     k.scale = p.scales(i);
     k.orientation = p.orientations(i);
     k.score = p.scores(i);
+    if (has_sigmas) {
+      k.sigma_px = p.keypoint_sigmas_px(i);
+      if (!(std::isfinite(k.sigma_px) && k.sigma_px > 0.0)) {
+        in.Fail(field + ".keypoint_sigmas_px[" + std::to_string(i) + "]",
+                "expected a finite value > 0, found " + std::to_string(k.sigma_px));
+      }
+    }
   }
   f.descriptors.assign(p.descriptors().begin(), p.descriptors().end());
   f.track_ids.assign(p.track_ids().begin(), p.track_ids().end());

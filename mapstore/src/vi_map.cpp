@@ -1,6 +1,7 @@
 #include "vilma/mapstore/vi_map.h"
 
 #include <algorithm>
+#include <cmath>
 #include <stdexcept>
 
 namespace vilma {
@@ -46,6 +47,13 @@ std::string VisualFrame::Validate() const {
            std::to_string(landmark_ids.size());
   }
   if (descriptor_type.empty()) return "descriptor_type: expected a name such as BRISK";
+  for (std::size_t k = 0; k < n; ++k) {
+    const double sigma = keypoints[k].sigma_px;
+    if (!(std::isfinite(sigma) && sigma > 0.0)) {
+      return "keypoint " + std::to_string(k) + ": sigma_px expected finite and > 0, found " +
+             std::to_string(sigma);
+    }
+  }
   return "";
 }
 

@@ -103,6 +103,37 @@ TEST_CASE("triangulation: pixel noise gives a bounded error that the covariance 
   CHECK(sum_error_linear < 1.5 * sum_error_refined);
 }
 
+TEST_CASE("triangulation: per-observation sigmas weight the residuals and the covariance",
+          "[mapping]") {
+  const Camera camera = TestCamera();
+  std::mt19937 rng(11);
+  const Eigen::Vector3d p_M(0.5, 5.0, 1.0);
+  std::vector<TriangulationObservation> obs =
+      Observe(camera, p_M, Eigen::Vector3d::Zero(), 1.5, 8, 0.2, &rng);
+  TriangulationOptions options;  // keypoint_sigma_px 1: the noise of observations without one
+  const TriangulationResult unweighted = Triangulate(obs, options);
+  REQUIRE(unweighted.ok());
+  // Equal sigmas: the same point, the covariance scaled by sigma^2, the RMS error in pixels.
+  for (TriangulationObservation& o : obs) o.sigma_px = 0.5;
+  const TriangulationResult equal = Triangulate(obs, options);
+  REQUIRE(equal.ok());
+  CHECK((equal.p_M - unweighted.p_M).norm() < 1e-9);
+  CHECK((equal.covariance_M - 0.25 * unweighted.covariance_M).norm() <
+        1e-9 * unweighted.covariance_M.norm());
+  CHECK(equal.rms_reprojection_error_px == Approx(unweighted.rms_reprojection_error_px));
+  // One keypoint 3 px off: with its sigma at 3 px it pulls the point much less.
+  obs[2].uv += Eigen::Vector2d(3.0, -2.0);
+  for (TriangulationObservation& o : obs) o.sigma_px = 0.0;
+  const TriangulationResult pulled = Triangulate(obs, options);
+  obs[2].sigma_px = 3.0;
+  const TriangulationResult weighted = Triangulate(obs, options);
+  REQUIRE(pulled.ok());
+  REQUIRE(weighted.ok());
+  INFO("error unweighted " << (pulled.p_M - p_M).norm() << " m, weighted "
+                           << (weighted.p_M - p_M).norm() << " m");
+  CHECK((weighted.p_M - p_M).norm() < 0.5 * (pulled.p_M - p_M).norm());
+}
+
 TEST_CASE("triangulation: degenerate and behind-camera cases are reported", "[mapping]") {
   const Camera camera = TestCamera();
   std::mt19937 rng(1);

@@ -113,6 +113,44 @@ TEST_CASE("optv (visual only) brings the structure back up to a similarity") {
   CHECK(after < 0.25 * before);
 }
 
+// The initial cost of optv (visual terms only, no robust loss: 1/2 sum |r / sigma|^2) when the
+// keypoints of the vertices in [from, to) of the chain store sigma_px.
+double InitialVisualCost(const SimulatedViMap& s, std::size_t from, std::size_t to,
+                         double sigma_px, double override_sigma_px = 0.0) {
+  mapstore::VIMap map = s.map.Clone();
+  const auto chain = map.VertexChain(map.mission_ids()[0]);
+  for (std::size_t i = from; i < to && i < chain.size(); ++i) {
+    for (mapstore::VisualFrame& f : map.vertex(chain[i]).frames) {
+      for (mapstore::Keypoint& k : f.keypoints) k.sigma_px = sigma_px;
+    }
+  }
+  ViOptimizationOptions o = Quiet();
+  o.inertial = false;
+  o.ba_robust_loss = "none";
+  o.ba_num_iterations = 1;
+  o.ba_iterations_per_round = 1;
+  o.keypoint_sigma_px = override_sigma_px;
+  return OptimizeViMap(o, &map).initial_cost;
+}
+
+TEST_CASE("optv whitens each reprojection residual by its keypoint's sigma_px") {
+  const SimulatedViMap s = MakeSimulatedViMap(4.0, 0.3);
+  const std::size_t n = s.map.vertex_ids(s.map.mission_ids()[0]).size();
+  const double c_default = InitialVisualCost(s, 0, 0, 1.0);  // the map's 1 px everywhere
+  REQUIRE(c_default > 0.0);
+  // All keypoints at 0.5 px: residuals x2, cost x4.
+  CHECK(InitialVisualCost(s, 0, n, 0.5) == Approx(4.0 * c_default).epsilon(1e-9));
+  // Per observation: 0.5 px on the first half, then on the second half; the two costs are
+  // 4 C_first + C_second and C_first + 4 C_second, together 5 C.
+  const double c_first = InitialVisualCost(s, 0, n / 2, 0.5);
+  const double c_second = InitialVisualCost(s, n / 2, n, 0.5);
+  CHECK(c_first != Approx(c_second).epsilon(1e-6));
+  CHECK(c_first + c_second == Approx(5.0 * c_default).epsilon(1e-9));
+  // keypoint_sigma_px > 0 overrides the map's sigmas.
+  CHECK(InitialVisualCost(s, 0, n, 0.5, 1.0) == Approx(c_default).epsilon(1e-12));
+  CHECK(InitialVisualCost(s, 0, n, 0.5, 2.0) == Approx(0.25 * c_default).epsilon(1e-9));
+}
+
 TEST_CASE("optvi removes an outlier observation and the map stays consistent") {
   SimulatedViMap s = MakeSimulatedViMap();
   const auto m = s.map.mission_ids()[0];

@@ -1,5 +1,7 @@
 #include <catch2/catch.hpp>
 
+#include <cmath>
+
 #include <filesystem>
 
 #include "core/test_data.h"
@@ -141,6 +143,10 @@ TEST_CASE("consistency check catches each injected fault", "[mapstore]") {
   SECTION("visual frame arrays disagree") {
     map.vertex(v0[1]).frames[1].track_ids.pop_back();
     RequireOnly(map, K::kVisualFrame, "track_ids");
+  }
+  SECTION("keypoint sigma not positive or not finite") {
+    map.vertex(v0[1]).frames[0].keypoints[2].sigma_px = GENERATE(0.0, -0.5, std::nan(""));
+    RequireOnly(map, K::kVisualFrame, "keypoint 2: sigma_px expected finite and > 0");
   }
   SECTION("image resource not in the map") {
     map.vertex(v0[2]).frames[1].image_resource_id = IdGenerator(555).Next();

@@ -87,6 +87,43 @@ TEST_CASE("round trip of every element is bit-exact (multi-mission, cross-missio
   }
 }
 
+TEST_CASE("keypoint sigmas: saved per keypoint, absent for default frames (old maps)",
+          "[mapstore]") {
+  SyntheticMapOptions o;
+  o.missions = 1;
+  o.vertices_per_mission = 4;
+  VIMap map = MakeSyntheticMap(o);
+  const MissionId m = map.mission_ids()[0];
+  // The synthetic map varies camera 0's sigmas; a map written before the field existed has
+  // none: every keypoint at the default, which saves as the old format did (no field).
+  VIMap old_map = map.Clone();
+  for (const VertexId& vid : old_map.vertex_ids(m)) {
+    for (VisualFrame& f : old_map.vertex(vid).frames) {
+      for (Keypoint& k : f.keypoints) k.sigma_px = kDefaultKeypointSigmaPx;
+    }
+  }
+  const std::string dir = FreshDir("sigmas"), old_dir = FreshDir("sigmas_old");
+  SaveMap(map, dir);
+  SaveMap(old_map, old_dir);
+  // The field costs bytes only where sigmas differ from the default (8 per keypoint + tags).
+  const auto vertex_bytes = [&](const std::string& d) {
+    return fs::file_size(FirstChunk(d, map, "vertices"));
+  };
+  CHECK(vertex_bytes(dir) > vertex_bytes(old_dir));
+  const VIMap loaded = LoadMap(dir);
+  RequireMapsEqual(map, loaded);
+  const VIMap loaded_old = LoadMap(old_dir);
+  RequireMapsEqual(old_map, loaded_old);
+  CHECK(CheckMapConsistency(loaded_old).ok());
+  const VertexId v = map.vertex_ids(m)[1];
+  CHECK(loaded.vertex(v).frames[0].keypoints[0].sigma_px != kDefaultKeypointSigmaPx);
+  CHECK(loaded_old.vertex(v).frames[0].keypoints[0].sigma_px == kDefaultKeypointSigmaPx);
+  // A sigma that is not > 0 is not saved (the frame's Validate names it).
+  map.vertex(v).frames[0].keypoints[1].sigma_px = 0.0;
+  REQUIRE_THROWS_WITH(SaveMap(map, FreshDir("sigmas_bad")),
+                      Catch::Contains("keypoint 1: sigma_px expected finite and > 0"));
+}
+
 TEST_CASE("special doubles survive bit-exactly", "[mapstore]") {
   SyntheticMapOptions o;
   o.missions = 1;

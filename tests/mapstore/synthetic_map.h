@@ -101,6 +101,9 @@ inline VIMap MakeSyntheticMap(const SyntheticMapOptions& o) {
           kp.scale = 8.0 + n(rng);
           kp.orientation = n(rng);
           kp.score = std::abs(n(rng)) * 50;
+          // Per-keypoint noise, varied without drawing from rng (the other values stay as they
+          // were); camera 1 keeps the default (a frame without the optional field).
+          if (c == 0) kp.sigma_px = 0.1 + 0.05 * ((vi + i) % 5);
           f.keypoints.push_back(kp);
           f.track_ids.push_back(i % 7 == 6 ? -1 : vi * 1000 + i);
           for (int b = 0; b < 64; ++b) f.descriptors.push_back(static_cast<uint8_t>(byte(rng)));
@@ -254,6 +257,7 @@ inline void RequireMapsEqual(const VIMap& a, const VIMap& b) {
           REQUIRE(BitEqual(fa.keypoints[k].scale, fb.keypoints[k].scale));
           REQUIRE(BitEqual(fa.keypoints[k].orientation, fb.keypoints[k].orientation));
           REQUIRE(BitEqual(fa.keypoints[k].score, fb.keypoints[k].score));
+          REQUIRE(BitEqual(fa.keypoints[k].sigma_px, fb.keypoints[k].sigma_px));
         }
         REQUIRE(fa.descriptor_type == fb.descriptor_type);
         REQUIRE(fa.descriptor_size_bytes == fb.descriptor_size_bytes);

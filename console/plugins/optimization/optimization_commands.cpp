@@ -22,7 +22,8 @@ Command<O> OptimizationFlags(Command<O> c) {
           .Flag("ba_robust_loss", &O::ba_robust_loss, "huber, cauchy or none")
           .Flag("ba_robust_loss_scale_px", &O::ba_robust_loss_scale_px,
                 "where the robust loss starts [px]")
-          .Flag("keypoint_sigma_px", &O::keypoint_sigma_px, "keypoint noise [px]")
+          .Flag("keypoint_sigma_px", &O::keypoint_sigma_px,
+                "keypoint noise [px]; 0: each keypoint's sigma stored in the map, > 0 overrides")
           .Flag("ba_fix_landmarks", &O::ba_fix_landmarks, "hold the landmark positions")
           .Flag("ba_fix_biases", &O::ba_fix_biases, "hold the IMU biases")
           .Flag("ba_fix_extrinsics", &O::ba_fix_extrinsics, "hold the camera extrinsics T_I_C")

@@ -29,6 +29,7 @@ std::vector<TriangulationObservation> ObservationsInG(const VIMap& map, const La
     ray.T_M_C = mission.T_G_M * v.T_M_I * camera.T_I_C;  // T_G_C
     ray.camera = &camera.camera;
     ray.uv = v.frames.at(o.camera).keypoints.at(o.keypoint).uv;
+    ray.sigma_px = v.frames.at(o.camera).keypoints.at(o.keypoint).sigma_px;
     rays.push_back(ray);
   }
   return rays;

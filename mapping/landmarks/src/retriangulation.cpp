@@ -212,8 +212,9 @@ TrackLandmarkSummary InitializeTrackLandmarks(const TrackLandmarkOptions& option
         const mapstore::Vertex& v = map->vertex(o.vertex_id);
         const mapstore::Mission& mission = map->mission(v.mission_id);
         const CameraConfig& camera = mission.rig.cameras.at(o.camera);
-        rays.push_back({mission.T_G_M * v.T_M_I * camera.T_I_C, &camera.camera,
-                        v.frames[o.camera].keypoints.at(o.keypoint).uv});
+        const mapstore::Keypoint& keypoint = v.frames[o.camera].keypoints.at(o.keypoint);
+        rays.push_back({mission.T_G_M * v.T_M_I * camera.T_I_C, &camera.camera, keypoint.uv,
+                        keypoint.sigma_px});
       }
       NewLandmark n;
       n.mission = m;

@@ -128,10 +128,21 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   problem_options.loss_function_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  std::unique_ptr<ceres::LossFunction> loss;
-  const double loss_scale = options.ba_robust_loss_scale_px / options.keypoint_sigma_px;
-  if (options.ba_robust_loss == "huber") loss = std::make_unique<ceres::HuberLoss>(loss_scale);
-  if (options.ba_robust_loss == "cauchy") loss = std::make_unique<ceres::CauchyLoss>(loss_scale);
+  // Reprojection residuals are whitened by their keypoint's sigma (the map's per-observation
+  // sigma_px, or options.keypoint_sigma_px when that overrides it), so the robust loss, whose
+  // scale is given in pixels, acts at ba_robust_loss_scale_px / sigma in whitened units: one
+  // loss function per distinct sigma (owned here; a map has few distinct values).
+  std::map<double, std::unique_ptr<ceres::LossFunction>> losses;
+  auto loss_for = [&](double sigma_px) -> ceres::LossFunction* {
+    if (options.ba_robust_loss == "none") return nullptr;
+    std::unique_ptr<ceres::LossFunction>& loss = losses[sigma_px];
+    if (!loss) {
+      const double scale = options.ba_robust_loss_scale_px / sigma_px;
+      if (options.ba_robust_loss == "huber") loss = std::make_unique<ceres::HuberLoss>(scale);
+      if (options.ba_robust_loss == "cauchy") loss = std::make_unique<ceres::CauchyLoss>(scale);
+    }
+    return loss.get();
+  };
   Clusters clusters(selected.size());
 
   // ---- inertial terms
@@ -196,10 +207,13 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
         for (const LandmarkObservation& o : l.observations) {
           const mapstore::Vertex& v = map->vertex(o.vertex_id);
           const mapstore::Mission& observer = map->mission(v.mission_id);
+          const mapstore::Keypoint& keypoint = v.frames.at(o.camera).keypoints.at(o.keypoint);
+          const double sigma_px =
+              options.keypoint_sigma_px > 0.0 ? options.keypoint_sigma_px : keypoint.sigma_px;
           Observation ob{lid,
                          o,
                          &observer.rig.cameras.at(o.camera).camera,
-                         v.frames.at(o.camera).keypoints.at(o.keypoint).uv,
+                         keypoint.uv,
                          pose_of(o.vertex_id),
                          block,
                          baseframe_of(v.mission_id),
@@ -210,14 +224,12 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
             ob.time_offset = time_offset_of(v.mission_id, o.camera);
             ob.omega_m_I = omega->second;
             ob.residual = problem.AddResidualBlock(
-                new TimeOffsetReprojectionCostFunction(ob.camera, ob.uv,
-                                                       options.keypoint_sigma_px, ob.omega_m_I),
-                loss.get(), ob.pose_M_I, ob.speed_bias, ob.p_G, ob.pose_G_M, ob.pose_I_C,
+                new TimeOffsetReprojectionCostFunction(ob.camera, ob.uv, sigma_px, ob.omega_m_I),
+                loss_for(sigma_px), ob.pose_M_I, ob.speed_bias, ob.p_G, ob.pose_G_M, ob.pose_I_C,
                 ob.time_offset);
           } else {
             ob.residual = problem.AddResidualBlock(
-                new ReprojectionCostFunction(ob.camera, ob.uv, options.keypoint_sigma_px),
-                loss.get(), ob.pose_M_I, ob.p_G, ob.pose_G_M, ob.pose_I_C);
+                new ReprojectionCostFunction(ob.camera, ob.uv, sigma_px), loss_for(sigma_px), ob.pose_M_I, ob.p_G, ob.pose_G_M, ob.pose_I_C);
           }
           landmark_observations[lid].push_back(observations.size());
           observations.push_back(ob);

@@ -17,7 +17,9 @@ std::string ViOptimizationOptions::Validate() const {
     return "ba_robust_loss: expected huber, cauchy or none";
   }
   if (!(ba_robust_loss_scale_px > 0)) return "ba_robust_loss_scale_px: expected > 0";
-  if (!(keypoint_sigma_px > 0)) return "keypoint_sigma_px: expected > 0";
+  if (!(keypoint_sigma_px >= 0 && std::isfinite(keypoint_sigma_px))) {
+    return "keypoint_sigma_px: expected >= 0 (0: each keypoint's own sigma from the map)";
+  }
   if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
   if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
   if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&

@@ -20,7 +20,8 @@ namespace vilma::mapping {
 struct TriangulationOptions {
   int max_iterations = 10;           // Gauss-Newton iterations at most (0: linear only)
   double convergence_step_m = 1e-6;  // stop when the update is shorter than this [m]
-  // Keypoint noise used for the landmark covariance (sigma^2 (J^T J)^-1) [px].
+  // Keypoint noise of the detector [px]: stored with unrefined keypoints (mapstore::Keypoint::
+  // sigma_px), and the noise of observations that carry none, for the landmark covariance.
   double keypoint_sigma_px = 1.0;
   std::string Validate() const;
 };

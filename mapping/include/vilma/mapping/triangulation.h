@@ -8,7 +8,9 @@
 // singular when all rays are parallel (no parallax).
 // Refinement: Gauss-Newton on the pixel residuals r_k = pi_k(R_C_M,k (p - c_k)) - uv_k with
 // J_k = d pi / d p_C * R_C_M,k (core/camera.h gives d pi / d p_C), so the result is the maximum
-// likelihood point under isotropic pixel noise. Covariance: sigma_px^2 (sum J_k^T J_k)^-1.
+// likelihood point under isotropic pixel noise. Each residual is weighted by 1 / sigma_k^2, the
+// observation's keypoint noise (its sigma_px, else options.keypoint_sigma_px); covariance
+// (sum J_k^T J_k / sigma_k^2)^-1, i.e. sigma_px^2 (sum J_k^T J_k)^-1 for equal noise.
 #pragma once
 
 #include <Eigen/Core>
@@ -25,6 +27,8 @@ struct TriangulationObservation {
   Transformation T_M_C;
   const Camera* camera = nullptr;
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();  // [px], distorted image
+  // Keypoint noise of uv [px] (mapstore::Keypoint::sigma_px); 0: the options' keypoint_sigma_px.
+  double sigma_px = 0.0;
 };
 
 enum class TriangulationStatus {

@@ -38,11 +38,20 @@ struct Mission {
   bool complete = false;    // false while streaming, or when recovered after a crash
 };
 
+// Measurement noise of a keypoint whose map does not record one (maps written before the
+// field existed load with it): the detector's placement noise, optvi's former default [px].
+inline constexpr double kDefaultKeypointSigmaPx = 1.0;
+
 struct Keypoint {
   Eigen::Vector2d uv = Eigen::Vector2d::Zero();  // pixel position [px]
   double scale = 0.0;                            // size [px]
   double orientation = 0.0;                      // [rad]
   double score = 0.0;                            // detector response
+  // Measurement noise of uv, per axis (isotropic) [px], finite and > 0: whitens the
+  // keypoint's reprojection residual in optvi and weights it in triangulation (maplab keeps
+  // a keypoint measurement uncertainty per observation too). The map builder writes the
+  // detector's noise, or its track refinement's (docs/mapping.md "Track refinement").
+  double sigma_px = kDefaultKeypointSigmaPx;
 };
 
 // Keypoints seen by one camera at one vertex. Parallel arrays indexed by keypoint index.
@@ -65,7 +74,8 @@ struct VisualFrame {
   const uint8_t* descriptor(std::size_t keypoint) const {
     return descriptors.data() + keypoint * descriptor_size_bytes;
   }
-  // Empty if the parallel arrays agree, else what does not.
+  // Empty if the parallel arrays agree and every keypoint's sigma_px is finite and > 0, else
+  // what is wrong.
   std::string Validate() const;
 };
 

@@ -45,7 +45,10 @@ struct ViOptimizationOptions {
   double ba_function_tolerance = 1e-6;
   std::string ba_robust_loss = "huber";  // huber, cauchy or none
   double ba_robust_loss_scale_px = 3.0;  // where the loss turns robust [px]
-  double keypoint_sigma_px = 1.0;        // keypoint noise: whitens the reprojection [px]
+  // Keypoint noise that whitens the reprojection residuals [px]: 0 (default) each
+  // observation's own sigma_px from the map (mapstore::Keypoint; 1 px in maps that do not
+  // record it); > 0 overrides every observation's. The robust loss scale stays in pixels.
+  double keypoint_sigma_px = 0.0;
   // Landmark positions held. They then fix the frame G themselves, so no vertex is held for
   // the gauge (a calibration target's corners: docs/optimization.md "Target calibration").
   bool ba_fix_landmarks = false;
