@@ -32,7 +32,9 @@
 #   VILMA_BUILD_DIR, VILMA_DATASETS, BENCH_WORK (default ${VILMA_CACHE:-~/.cache/vilma}/bench-optvi),
 #   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2,
 #   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster),
-#   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4; BENCH_LONG=1 adds table 5 (BENCH_LONG_PIPELINES:
+#   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4; VIO_MAP_DAEMON_CONFIG=daemon.yaml: table 1's
+#   maps built with that daemon config (e.g. mapping.map_builder with track refinement; use
+#   its own BENCH_WORK); BENCH_LONG=1 adds table 5 (BENCH_LONG_PIPELINES:
 #   its pipelines separated by `|`, default the four above). On a shared machine run it under
 #   `nice -n 10`.
 set -euo pipefail
@@ -45,7 +47,7 @@ work=${BENCH_WORK:-$cache/bench-optvi}
 shared=${VILMA_SHARED_DATA:-$repo_dir/../shared/data}
 bin=$build_dir/bin
 case "${1:-}" in
-  -h|--help) sed -n '2,37p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help) sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
   -*) echo "bench-optvi: unknown option '$1' (see --help)" >&2; exit 2 ;;
 esac
 # The sets scripts/make-datasets.sh knows.

@@ -14,15 +14,21 @@ stale() {
 }
 
 # vio_map SET: prints the folder of SET's daemon-built VI-map ($work/SET-map; the daemon's
-# output in $work/SET-map.out, its poses in $work/SET-map.lcm).
+# output in $work/SET-map.out, its poses in $work/SET-map.lcm). VIO_MAP_DAEMON_CONFIG: a daemon
+# config (--config; e.g. its mapping.map_builder with track refinement), default the built-in.
 vio_map() {
   local set=$1 log=$work/$1.lcmlog map=$work/$1-map
+  local config=() inputs=("$log" "$bin/vilma-estimatord")
+  if [ -n "${VIO_MAP_DAEMON_CONFIG:-}" ]; then
+    config=(--config "$VIO_MAP_DAEMON_CONFIG")
+    inputs+=("$VIO_MAP_DAEMON_CONFIG")
+  fi
   if stale "$log" "$datasets/$set/sim.yaml"; then
     "$bin/vilma-replay" "$datasets/$set" --to-log "$log" --quiet >&2
   fi
-  if stale "$map.out" "$log" "$bin/vilma-estimatord" || [ -z "$(ls -A "$map" 2> /dev/null)" ]; then
+  if stale "$map.out" "${inputs[@]}" || [ -z "$(ls -A "$map" 2> /dev/null)" ]; then
     rm -rf "$map" "$map.out" "$map.lcm"  # --save-map wants an absent or empty folder
-    "$bin/vilma-estimatord" --rig "$datasets/$set/rig.yaml" --input-log "$log" \
+    "$bin/vilma-estimatord" "${config[@]}" --rig "$datasets/$set/rig.yaml" --input-log "$log" \
       --lcm-url "file://$map.lcm?mode=w" --save-map "$map" > "$map.out.tmp" 2>&1 ||
       { cat "$map.out.tmp" >&2; echo "vio_map: vilma-estimatord failed ($set)" >&2; return 1; }
     mv "$map.out.tmp" "$map.out"
