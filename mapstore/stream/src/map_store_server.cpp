@@ -453,7 +453,7 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
   int64_t last_seq = -1;
   try {
     JournalRecovery recovery;
-    const std::vector<JournalRecord> records = MissionJournal::Read(journal_path, &recovery);
+    std::vector<JournalRecord> records = MissionJournal::Read(journal_path, &recovery);
     // Deltas from any sender: every element that can be kept is kept, the rest counted
     // (mapstore/mission_repair.h). A record that is not a delta is skipped: retrying cannot
     // change its bytes, and failing the finalization for it would lose the whole mission.
@@ -463,14 +463,18 @@ bool MapStoreServer::Finalize(const MissionId& id, bool complete) {
     header.name = m.name;  // the first delta's header replaces it
     map.AddMission(header);
     MissionRepairReport repairs;
-    for (const JournalRecord& r : records) {
+    for (JournalRecord& r : records) {
       if (r.type == JournalRecordType::kHeader) continue;
       last_seq = r.seq;
-      if (r.payload.empty()) continue;
+      // Each record's bytes are released once parsed: the journal (the last delta re-sends
+      // every vertex, so it is larger than the map) and the map are not held whole together.
+      const std::string payload = std::move(r.payload);
+      r.payload = std::string();
+      if (payload.empty()) continue;
       const std::string source = journal_path + ": seq " + std::to_string(r.seq);
       MissionDelta delta;
       try {
-        delta = ParseMissionDelta(r.payload, source);
+        delta = ParseMissionDelta(payload, source);
       } catch (const InputError& e) {
         ++repairs.deltas_unreadable;
         repairs.Note(e.what());
