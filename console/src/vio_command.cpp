@@ -372,7 +372,8 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
       out << "  stereo           camera " << options.stereo.camera << ": " << s.stereo_updates
           << " updates accepted, " << s.stereo_rejections << " not; " << s.stereo_matches
           << " initial depths matched, " << s.stereo_match_failures << " not; "
-          << pipeline.stage().counters().frames_without_stereo << " frames without it\n";
+          << pipeline.stage().counters().frames_without_stereo << " frames without it; "
+          << s.stereo_disagreement_removals << " features removed (C1 and C2 disagreeing)\n";
     }
     if (builder) {
       // The rest of the IMU stream (still in the synchronizer) completes the last edge.

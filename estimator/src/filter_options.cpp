@@ -101,6 +101,7 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("stereo", "min_uniqueness_ratio", o.stereo.min_uniqueness_ratio);
   v("stereo", "joint_update", o.stereo.joint_update);
   v("stereo", "model_error_correlation", o.stereo.model_error_correlation);
+  v("stereo", "max_disagreements", o.stereo.max_disagreements);
 }
 
 }  // namespace
@@ -225,6 +226,7 @@ std::string StereoOptions::Validate() const {
   if (!(model_error_correlation >= 0.0 && model_error_correlation <= 1.0)) {
     return "model_error_correlation: expected a value in [0, 1]";
   }
+  if (max_disagreements < 0) return "max_disagreements: expected >= 0 (0: off)";
   return "";
 }
 

@@ -302,6 +302,7 @@ void VioFilter::RemoveFeature(int slot) {
   P_.middleCols<kFeatureDim>(k).setZero();
   tracks_[i].failures = 0;
   tracks_[i].age = 0;
+  tracks_[i].disagreements = 0;
 }
 
 void VioFilter::AddFeatures() {
@@ -335,6 +336,7 @@ void VioFilter::AddFeatures() {
     track.D = BearingBasis(mu).transpose() * J_mu_px;
     track.failures = 0;
     track.age = 0;
+    track.disagreements = 0;
     const int k = FeatureIndex(static_cast<int>(slot));
     P_.middleRows<kFeatureDim>(k).setZero();
     P_.middleCols<kFeatureDim>(k).setZero();
@@ -395,13 +397,18 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
     if (joint) {
       // Both cameras in one update; a camera that fails leaves the other's update alone.
       const JointUpdate j = UpdateFeatureJoint(slot);
+      Track& track = tracks_[static_cast<std::size_t>(slot)];
       if (j == JointUpdate::kDone) {
         ++result.num_updated;
         ++result.num_stereo_updated;
+        track.disagreements = 0;
         continue;
       }
       if (UpdateFeature(slot)) {
         ++result.num_updated;
+        // C1 tracks the feature, C2 sees its predicted place but rejects it: counted, and
+        // after stereo.max_disagreements frames in a row the feature is removed below.
+        track.disagreements = j == JointUpdate::kC2Rejected ? track.disagreements + 1 : 0;
       } else {
         ++result.num_rejected;
       }
@@ -444,8 +451,14 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
   for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
     const FeatureState& f = x_.features[static_cast<std::size_t>(slot)];
     if (!f.active) continue;
-    if (tracks_[static_cast<std::size_t>(slot)].failures >= options_.features.max_failures ||
-        f.rho < options_.features.min_inverse_depth) {
+    const Track& track = tracks_[static_cast<std::size_t>(slot)];
+    const int max_disagreements = options_.stereo.max_disagreements;
+    if (track.failures >= options_.features.max_failures ||
+        f.rho < options_.features.min_inverse_depth ||
+        (max_disagreements > 0 && track.disagreements >= max_disagreements)) {
+      if (max_disagreements > 0 && track.disagreements >= max_disagreements) {
+        ++stats_.stereo_disagreement_removals;
+      }
       RemoveFeature(slot);
     }
   }

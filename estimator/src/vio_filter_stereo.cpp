@@ -218,7 +218,7 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   const Eigen::Vector2d e2 = aligned2.pixel - pr2.pixel;
   if (!aligned2.converged || aligned2.mean_abs_error > uo.max_mean_abs_error ||
       !(e2.dot(S2.ldlt().solve(e2)) < uo.mahalanobis_threshold)) {
-    return JointUpdate::kC2Failed;
+    return JointUpdate::kC2Rejected;
   }
 
   // 2. Iterated EKF on both photometric errors at once (IJRR 2017, sec. 5, with the rows of

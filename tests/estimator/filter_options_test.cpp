@@ -88,6 +88,9 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
                                                "model_error_correlation: 1.5"),
                                        "f.yaml"),
                     "f.yaml: stereo.model_error_correlation: expected a value in [0, 1]");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("max_disagreements: 0", "max_disagreements: -1"),
+                                       "f.yaml"),
+                    "f.yaml: stereo.max_disagreements: expected >= 0 (0: off)");
   CHECK_THROWS_WITH(ParseFilterOptions("[1, 2]", "f.yaml"), Catch::Contains("f.yaml"));
   CHECK_THROWS_WITH(LoadFilterOptions("/nonexistent/estimator.yaml"),
                     Catch::Contains("/nonexistent/estimator.yaml"));

@@ -135,6 +135,12 @@ struct StereoOptions {
   // Correlation [0, 1] of update.pixel_sigma's model error between the C1 and C2 rows of the
   // joint update (0: independent, as two separate updates: median 0.87; 1: 0.64; 0.9: 0.59).
   double model_error_correlation = 0.9;
+  // With the joint update: a feature whose C2 alignment fails in this many consecutive frames
+  // while it is predicted inside C2's image and its C1 update succeeds is removed (0: never;
+  // off by default, one run per set measured): its two cameras disagree (e.g. a depth far too
+  // near, which C1 alone does not correct; docs/estimator.md "Street: is the disparity
+  // biased?").
+  int max_disagreements = 0;
   std::string Validate() const;
 };
 

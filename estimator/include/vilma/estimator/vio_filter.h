@@ -64,6 +64,7 @@ struct FilterStats {
   int64_t stereo_rejections = 0;   // tried there, gated out / failed
   int64_t stereo_matches = 0;      // new features with rho from a stereo match
   int64_t stereo_match_failures = 0;  // new features left at features.init_inverse_depth
+  int64_t stereo_disagreement_removals = 0;  // removed after stereo.max_disagreements
   // stereo_match_failures by reason, indexed by StereoMatchFailure (index 0 unused).
   std::array<int64_t, kNumStereoMatchFailures> stereo_match_failure_reasons{};
 };
@@ -123,6 +124,7 @@ class VioFilter {
     Eigen::Matrix2d D = Eigen::Matrix2d::Identity();  // d tangent / d pixel at extraction
     int failures = 0;
     int age = 0;
+    int disagreements = 0;  // consecutive frames: C1 updated, C2 in view but rejected
   };
 
   bool Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not);
@@ -141,8 +143,9 @@ class VioFilter {
   // stereo.joint_update: C1 and C2 of one feature in one 4-row iterated update with the
   // correlated model error of StereoJointNoise. kC1Failed / kC2Failed: that camera's
   // prediction, alignment or gate failed (or the joint step did not converge); nothing was
-  // changed and the caller updates with the camera(s) left.
-  enum class JointUpdate { kDone, kC1Failed, kC2Failed };
+  // changed and the caller updates with the camera(s) left. kC2Rejected: predicted inside
+  // C2's image, but the alignment there failed or was gated out (a disagreement).
+  enum class JointUpdate { kDone, kC1Failed, kC2Failed, kC2Rejected };
   JointUpdate UpdateFeatureJoint(int slot);
   // The feature's pixel in the second camera at the image time and d pixel / d (tangent at
   // mu_basis_at, rho, td). False if it does not project into the second image.
