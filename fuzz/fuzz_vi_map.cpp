@@ -1,7 +1,8 @@
 // VI-map folders (mapstore/map_io.h): the manifest and the protobuf chunks. A small synthetic
 // map is saved once; each input replaces one of its files (the first byte picks which). For a
 // data file the manifest's size and CRC-32 are patched to match, so that the bytes reach the
-// protobuf parser and the map's reference checks instead of stopping at the checksum.
+// protobuf parser and the map's reference checks instead of stopping at the checksum. Half of
+// the seed map's vertices carry refined keypoint sigmas (the optional field of 195aa8e).
 #include <cstddef>
 #include <cstdint>
 #include <exception>
@@ -46,8 +47,21 @@ const SeedMap& Seed() {
     options.keypoints_per_frame = 12;
     options.landmarks_per_vertex = 4;
     options.imu_samples_per_edge = 3;
-    const vilma::mapstore::VIMap map = vilma::mapstore::ApplyDeltas(
+    vilma::mapstore::VIMap map = vilma::mapstore::ApplyDeltas(
         vilma::mapstore::MakeSyntheticMissionDeltas(options));
+    // Refined keypoints' sigmas on every other vertex, so that the seeds carry the optional
+    // `keypoint_sigmas_px` field (written only when a frame differs from the default).
+    int k = 0;
+    for (const auto& mission_id : map.mission_ids()) {
+      for (const auto& vertex_id : map.vertex_ids(mission_id)) {
+        if (k++ % 2 != 0) continue;
+        for (auto& frame : map.vertex(vertex_id).frames) {
+          for (std::size_t i = 0; i < frame.keypoints.size(); ++i) {
+            frame.keypoints[i].sigma_px = 0.15 + 0.05 * static_cast<double>(i % 3);
+          }
+        }
+      }
+    }
     vilma::mapstore::SaveMap(map, s.folder.string());
     s.manifest = vilma::fuzz::ReadText(s.folder / "manifest.yaml");
     const std::regex entry(R"(path: ([^,}]+),)");
