@@ -453,12 +453,10 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
     if (!f.active) continue;
     const Track& track = tracks_[static_cast<std::size_t>(slot)];
     const int max_disagreements = options_.stereo.max_disagreements;
+    const bool disagrees = max_disagreements > 0 && track.disagreements >= max_disagreements;
     if (track.failures >= options_.features.max_failures ||
-        f.rho < options_.features.min_inverse_depth ||
-        (max_disagreements > 0 && track.disagreements >= max_disagreements)) {
-      if (max_disagreements > 0 && track.disagreements >= max_disagreements) {
-        ++stats_.stereo_disagreement_removals;
-      }
+        f.rho < options_.features.min_inverse_depth || disagrees) {
+      if (disagrees) ++stats_.stereo_disagreement_removals;
       RemoveFeature(slot);
     }
   }

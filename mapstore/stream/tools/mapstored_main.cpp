@@ -142,10 +142,11 @@ int main(int argc, char** argv) {
   // Buffers of 256 KiB and more are mmapped, and so go back to the kernel when freed: LCM
   // fragments and chunk payloads (up to 1 MiB, ~0.1-0.8 MB in a daemon's mission) are allocated
   // and freed once per chunk. By default glibc raises its mmap threshold to the largest buffer
-  // freed so far and its trim threshold to twice that, so these buffers came from liblcm's
-  // receive thread's arena, whose free top malloc_trim does not return (it trims only the main
-  // arena's top): that arena held ~6 MB resident with 2.4 MB of heap in use in total (a soak
-  // under load, 2026-11-27). Setting the threshold turns the dynamic adjustment off.
+  // freed so far and its trim threshold to twice that, so these buffers come from the arenas;
+  // in a soak under load (2026-11-27) a thread arena (most likely liblcm's receive thread's)
+  // held ~6 MB resident with 2.4 MB of heap in use in total, after malloc_trim (which, by
+  // glibc's source, trims only the main arena's top). Setting the threshold turns the dynamic
+  // adjustment off; the measured effect is in docs/reliability.md "Soak".
   mallopt(M_MMAP_THRESHOLD, 256 * 1024);
   // Chunks arrive in bursts of up to max_in_flight_chunks: a large receive buffer (lcm_url.h).
   const std::string lcm_url = vilma::WithDefaultRecvBufSize(vilma::ResolveLcmUrl(url));
