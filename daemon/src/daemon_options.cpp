@@ -45,6 +45,7 @@ std::string QueueOptions::Validate() const {
   if (output_capacity < 4) return "queues.output_capacity: expected >= 4";
   if (image_pool_slots < 2) return "queues.image_pool_slots: expected >= 2";
   if (max_frames_in_flight < 1) return "queues.max_frames_in_flight: expected >= 1";
+  if (!(log_slot_wait_s > 0.0)) return "queues.log_slot_wait_s: expected > 0 [s]";
   return "";
 }
 
@@ -209,6 +210,7 @@ void VisitDaemonFields(Options& o, Visitor&& v) {
   v("queues", "output_capacity", o.queues.output_capacity);
   v("queues", "image_pool_slots", o.queues.image_pool_slots);
   v("queues", "max_frames_in_flight", o.queues.max_frames_in_flight);
+  v("queues", "log_slot_wait_s", o.queues.log_slot_wait_s);
   v("sync", "frame_grouping_tolerance_ns", o.sync.frame_grouping_tolerance_ns);
   v("sync", "incomplete_frame_timeout_ns", o.sync.incomplete_frame_timeout_ns);
   v("sync", "max_imu_wait_ns", o.sync.max_imu_wait_ns);

@@ -1,7 +1,9 @@
 #include "vilma/daemon/image_pool.h"
 
+#include <chrono>
 #include <new>
 #include <stdexcept>
+#include <thread>
 
 namespace vilma::daemon {
 
@@ -42,6 +44,28 @@ cv::Mat ImagePool::TryAcquire(int rows, int cols, int type) {
   image.u = u;
   u->refcount = 1;
   return image;
+}
+
+cv::Mat ImagePool::AcquireWaiting(int rows, int cols, int type, const std::atomic<bool>& stop,
+                                  double max_wait_s, double report_every_s,
+                                  const std::function<void(double)>& report) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  const auto seconds_since_start = [&] {
+    return std::chrono::duration<double>(Clock::now() - start).count();
+  };
+  double next_report_s = report_every_s;
+  cv::Mat slot = TryAcquire(rows, cols, type);
+  while (slot.empty() && !stop.load() && seconds_since_start() < max_wait_s) {
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    slot = TryAcquire(rows, cols, type);
+    const double waited_s = seconds_since_start();
+    if (slot.empty() && report && waited_s >= next_report_s) {
+      report(waited_s);
+      next_report_s += report_every_s;
+    }
+  }
+  return slot;
 }
 
 cv::UMatData* ImagePool::allocate(int dims, const int* sizes, int type, void* data, size_t* step,

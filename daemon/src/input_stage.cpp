@@ -43,6 +43,7 @@ InputStage::InputStage(const DaemonOptions& options, const SensorRig& rig, int n
                        Pipeline* pipeline, ImagePool* pool, Spsc<InputItem>* out)
     : rig_(rig),
       input_log_(options.input_log),
+      log_slot_wait_s_(options.queues.log_slot_wait_s),
       p_(*pipeline),
       pool_(*pool),
       out_(*out),
@@ -139,12 +140,15 @@ void InputStage::HandleImage(int camera, const void* data, int size, int64_t rec
   }
   cv::Mat slot = pool_.TryAcquire(msg.height, msg.width, CV_8UC1);
   if (slot.empty() && p_.log_mode) {
-    // Blocking backpressure; bounded so that a logic error cannot hang the daemon.
-    const int64_t give_up = SteadyNs() + 5000 * kMs;
-    while (slot.empty() && !p_.stop.load() && SteadyNs() < give_up) {
-      std::this_thread::sleep_for(std::chrono::microseconds(200));
-      slot = pool_.TryAcquire(msg.height, msg.width, CV_8UC1);
-    }
+    // Blocking backpressure: a replay is loss-free however slow the stages are. Every release
+    // frees a slot that this (the only acquiring) thread takes at once, so "no slot for
+    // log_slot_wait_s" means nothing downstream released an image for that long: bounded so
+    // that a logic error cannot hang the daemon. The wait is logged every 10 s.
+    slot = pool_.AcquireWaiting(msg.height, msg.width, CV_8UC1, p_.stop, log_slot_wait_s_, 10.0,
+                                [&](double waited_s) {
+                                  p_.log(15, "waiting %.0f s for a free image slot (%s): the "
+                                         "stages downstream are slow", waited_s, channel.c_str());
+                                });
   }
   if (slot.empty()) {
     p_.counters.Add(kImagesDroppedPool);

@@ -41,6 +41,7 @@ class InputStage {
 
   const SensorRig& rig_;
   const std::string input_log_;
+  const double log_slot_wait_s_;  // QueueOptions::log_slot_wait_s
   Pipeline& p_;
   ImagePool& pool_;
   Spsc<InputItem>& out_;

@@ -56,6 +56,8 @@ TEST_CASE("bad daemon configs are rejected naming the key") {
   CHECK_THAT(ErrorOf(Replace(good, "imu: IMU", "imu: imu.*")), Catch::Contains("channels.imu"));
   CHECK_THAT(ErrorOf(Replace(good, "input_capacity: 4096", "input_capacity: 3")),
              Catch::Contains("queues.input_capacity"));
+  CHECK_THAT(ErrorOf(Replace(good, "log_slot_wait_s: 120", "log_slot_wait_s: 0")),
+             Catch::Contains("queues.log_slot_wait_s"));
   CHECK_THAT(ErrorOf(Replace(good, "max_pending_frames: 8", "max_pending_frames: 8\n  bogus: 1")),
              Catch::Contains("bogus"));
   CHECK_THAT(ErrorOf(Replace(good, "status_period_s: 1.0", "")), Catch::Contains("status_period_s"));

@@ -1,6 +1,8 @@
 #include "vilma/daemon/image_pool.h"
 
+#include <atomic>
 #include <catch2/catch.hpp>
+#include <chrono>
 #include <thread>
 #include <vector>
 
@@ -55,6 +57,47 @@ TEST_CASE("image pool: images released on other threads return to the pool") {
     b.join();
     REQUIRE(pool.num_free() == 4);
   }
+}
+
+TEST_CASE("image pool: AcquireWaiting waits for a release, gives up after max_wait_s, stops on request") {
+  using Clock = std::chrono::steady_clock;
+  const auto seconds_since = [](Clock::time_point t) {
+    return std::chrono::duration<double>(Clock::now() - t).count();
+  };
+  ImagePool pool(1, 100);
+  std::atomic<bool> stop{false};
+  cv::Mat held = pool.TryAcquire(10, 10, CV_8UC1);
+  REQUIRE(!held.empty());
+
+  // Released by another thread after 0.3 s; the wait of up to 5 s takes it, and the report
+  // (every 0.1 s) saw the wait grow.
+  std::vector<double> reports;
+  Clock::time_point start = Clock::now();
+  std::thread releaser([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    held.release();
+  });
+  cv::Mat taken = pool.AcquireWaiting(10, 10, CV_8UC1, stop, 5.0, 0.1,
+                                      [&](double waited_s) { reports.push_back(waited_s); });
+  releaser.join();
+  REQUIRE(!taken.empty());
+  CHECK(seconds_since(start) >= 0.29);
+  REQUIRE(reports.size() >= 2);
+  CHECK(reports.front() >= 0.1);
+  for (std::size_t i = 1; i < reports.size(); ++i) CHECK(reports[i] > reports[i - 1]);
+
+  // Nothing released: empty after max_wait_s.
+  start = Clock::now();
+  CHECK(pool.AcquireWaiting(10, 10, CV_8UC1, stop, 0.2, 10.0, nullptr).empty());
+  CHECK(seconds_since(start) >= 0.2);
+
+  // A stop request ends the wait at once (long before max_wait_s).
+  stop.store(true);
+  start = Clock::now();
+  CHECK(pool.AcquireWaiting(10, 10, CV_8UC1, stop, 60.0, 10.0, nullptr).empty());
+  CHECK(seconds_since(start) < 30.0);
+  taken.release();
+  CHECK(pool.num_free() == 1);
 }
 
 }  // namespace

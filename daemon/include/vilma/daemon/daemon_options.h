@@ -40,6 +40,12 @@ struct QueueOptions {
   // (images_dropped_pool); the slots are recycled when the filter (or the synchronizer that
   // dropped the frame) releases the image.
   int image_pool_slots = 40;  // RequiredImagePoolSlots: stereo + mapping + LOC needs 34
+  // --input-log only: the input waits for a free slot instead of dropping (a replay must be
+  // loss-free and deterministic however slow the stages are), and drops the image only when no
+  // slot came back for this long [s] -- a guard against a logic error, never hit when the pool
+  // has RequiredImagePoolSlots. (A slow map builder on a loaded machine held every slot for
+  // more than the 5 s of the fixed guard before this option, 2026-11-27.)
+  double log_slot_wait_s = 120.0;
   // Frames queued for the filter at most [count]; beyond, the sync stage thins frames
   // (frames_dropped_busy) instead of building up latency. IMU samples are always forwarded.
   int max_frames_in_flight = 2;

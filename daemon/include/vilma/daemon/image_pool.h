@@ -15,6 +15,7 @@
 #include <boost/lockfree/queue.hpp>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <opencv2/core.hpp>
 #include <vector>
@@ -32,6 +33,12 @@ class ImagePool : public cv::MatAllocator {
   // A rows x cols image of `type` in a free slot (contents undefined), or an empty cv::Mat if
   // every slot is in use or the image does not fit a slot. Single caller thread.
   cv::Mat TryAcquire(int rows, int cols, int type);
+  // TryAcquire, retried every 0.2 ms until a slot is free, `stop` is set or `max_wait_s`
+  // seconds have passed (then an empty cv::Mat). `report(waited_s)` is called every
+  // `report_every_s` seconds of waiting (may be empty). The --input-log backpressure.
+  cv::Mat AcquireWaiting(int rows, int cols, int type, const std::atomic<bool>& stop,
+                         double max_wait_s, double report_every_s,
+                         const std::function<void(double)>& report);
 
   int num_slots() const { return static_cast<int>(slots_.size()); }
   std::size_t slot_bytes() const { return slot_bytes_; }
