@@ -134,7 +134,7 @@ echo "soak.sh: $minutes min, output in $out (load average now: $(cut -d' ' -f1-3
 # autogroups were turned off mid-run, 9 drops in the next 10 min, then none, p99 median 10.7 ms.
 # Recorded in machine.txt and the report, and warned about.
 autogroup=$(cat /proc/sys/kernel/sched_autogroup_enabled 2> /dev/null || echo "n/a")
-echo "kernel.sched_autogroup_enabled=$autogroup" > "$out/machine.txt"
+echo "kernel.sched_autogroup_enabled=$autogroup, soak processes at nice $(nice)" > "$out/machine.txt"
 if [ "$autogroup" = "1" ]; then
   echo "soak.sh: warning: kernel.sched_autogroup_enabled=1: processes of other sessions get an equal" \
        "share of the CPU whatever their nice or SCHED_IDLE; run the soak on an idle machine or" \
