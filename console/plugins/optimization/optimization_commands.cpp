@@ -19,9 +19,13 @@ Command<O> OptimizationFlags(Command<O> c) {
                 "iterations between re-integration / outlier rejection / progress")
           .Flag("ba_function_tolerance", &O::ba_function_tolerance,
                 "converged when the relative cost change is below this")
-          .Flag("ba_robust_loss", &O::ba_robust_loss, "huber, cauchy or none")
+          .Flag("ba_robust_loss", &O::ba_robust_loss, "cauchy, huber or none")
+          .Flag("ba_robust_loss_scale_sigma", &O::ba_robust_loss_scale_sigma,
+                "where the robust loss starts, in sigma of each observation's keypoint noise "
+                "(3: 3 px for a 1 px keypoint, 0.45 px for a 0.15 px refined one)")
           .Flag("ba_robust_loss_scale_px", &O::ba_robust_loss_scale_px,
-                "where the robust loss starts [px]")
+                "> 0: where the robust loss starts in pixels, the same for every observation "
+                "(overrides ba_robust_loss_scale_sigma); 0: in sigma")
           .Flag("keypoint_sigma_px", &O::keypoint_sigma_px,
                 "keypoint noise [px]; 0: each keypoint's sigma stored in the map, > 0 overrides")
           .Flag("ba_fix_landmarks", &O::ba_fix_landmarks, "hold the landmark positions")

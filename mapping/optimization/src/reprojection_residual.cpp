@@ -1,6 +1,8 @@
 #include "vilma/mapping/optimization/reprojection_residual.h"
 
 #include <Eigen/Geometry>
+#include <cmath>
+#include <stdexcept>
 
 #include "vilma/core/geometry.h"
 
@@ -62,6 +64,25 @@ bool ReprojectionCostFunction::Evaluate(double const* const* parameters, double*
     Je.block<2, 3>(0, 3) = J * Skew(p_C);
   }
   return true;
+}
+
+std::unique_ptr<ceres::LossFunction> ReprojectionLoss(const std::string& type, double scale_sigma,
+                                                      double scale_px, double sigma_px) {
+  if (!(sigma_px > 0 && std::isfinite(sigma_px))) {
+    throw std::invalid_argument("ReprojectionLoss: sigma_px must be > 0");
+  }
+  if (!(scale_px >= 0 && std::isfinite(scale_px))) {
+    throw std::invalid_argument("ReprojectionLoss: scale_px must be >= 0");
+  }
+  // The residual is (pi(p_C) - uv) / sigma_px: a pixel scale becomes scale_px / sigma_px.
+  const double scale = scale_px > 0 ? scale_px / sigma_px : scale_sigma;
+  if (!(scale > 0 && std::isfinite(scale))) {
+    throw std::invalid_argument("ReprojectionLoss: scale_sigma must be > 0");
+  }
+  if (type == "none") return nullptr;
+  if (type == "huber") return std::make_unique<ceres::HuberLoss>(scale);
+  if (type == "cauchy") return std::make_unique<ceres::CauchyLoss>(scale);
+  throw std::invalid_argument("ReprojectionLoss: unknown loss '" + type + "'");
 }
 
 }  // namespace vilma::mapping

@@ -129,19 +129,21 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
   // Reprojection residuals are whitened by their keypoint's sigma (the map's per-observation
-  // sigma_px, or options.keypoint_sigma_px when that overrides it), so the robust loss, whose
-  // scale is given in pixels, acts at ba_robust_loss_scale_px / sigma in whitened units: one
+  // sigma_px, or options.keypoint_sigma_px when that overrides it); the robust loss acts on the
+  // whitened residual at ba_robust_loss_scale_sigma (k sigma for every observation), or at
+  // ba_robust_loss_scale_px / sigma when a pixel scale is given (reprojection_residual.h). One
   // loss function per distinct sigma (owned here; a map has few distinct values).
   std::map<double, std::unique_ptr<ceres::LossFunction>> losses;
   auto loss_for = [&](double sigma_px) -> ceres::LossFunction* {
-    if (options.ba_robust_loss == "none") return nullptr;
-    std::unique_ptr<ceres::LossFunction>& loss = losses[sigma_px];
-    if (!loss) {
-      const double scale = options.ba_robust_loss_scale_px / sigma_px;
-      if (options.ba_robust_loss == "huber") loss = std::make_unique<ceres::HuberLoss>(scale);
-      if (options.ba_robust_loss == "cauchy") loss = std::make_unique<ceres::CauchyLoss>(scale);
+    auto it = losses.find(sigma_px);
+    if (it == losses.end()) {
+      it = losses
+               .emplace(sigma_px, ReprojectionLoss(options.ba_robust_loss,
+                                                   options.ba_robust_loss_scale_sigma,
+                                                   options.ba_robust_loss_scale_px, sigma_px))
+               .first;
     }
-    return loss.get();
+    return it->second.get();
   };
   Clusters clusters(selected.size());
 

@@ -16,7 +16,12 @@ std::string ViOptimizationOptions::Validate() const {
   if (ba_robust_loss != "huber" && ba_robust_loss != "cauchy" && ba_robust_loss != "none") {
     return "ba_robust_loss: expected huber, cauchy or none";
   }
-  if (!(ba_robust_loss_scale_px > 0)) return "ba_robust_loss_scale_px: expected > 0";
+  if (!(ba_robust_loss_scale_sigma > 0 && std::isfinite(ba_robust_loss_scale_sigma))) {
+    return "ba_robust_loss_scale_sigma: expected > 0";
+  }
+  if (!(ba_robust_loss_scale_px >= 0 && std::isfinite(ba_robust_loss_scale_px))) {
+    return "ba_robust_loss_scale_px: expected >= 0 (0: ba_robust_loss_scale_sigma applies)";
+  }
   if (!(keypoint_sigma_px >= 0 && std::isfinite(keypoint_sigma_px))) {
     return "keypoint_sigma_px: expected >= 0 (0: each keypoint's own sigma from the map)";
   }

@@ -12,13 +12,22 @@
 // A point behind the camera (or not finite) gives a zero residual and zero Jacobians: it adds
 // nothing; the optimizer's outlier rejection removes such observations between solver rounds.
 //
-// To add: problem.AddResidualBlock(new ReprojectionCostFunction(&camera, uv, sigma_px), loss,
-//                                  pose_M_I, p_G, pose_G_M, pose_I_C);
+// Robust loss (ReprojectionLoss): it acts on the whitened residual, so a scale of k turns it
+// robust at k sigma of the observation's own keypoint noise, i.e. at k * sigma_px pixels
+// (Huber: rho(s) = s for s <= k^2, 2k sqrt(s) - k^2 beyond; Cauchy: k^2 log(1 + s / k^2),
+// s = |r|^2). A scale given in pixels instead (the same for every observation) is scale_px /
+// sigma_px on the whitened residual.
+//
+// To add: problem.AddResidualBlock(new ReprojectionCostFunction(&camera, uv, sigma_px),
+//                                  loss, pose_M_I, p_G, pose_G_M, pose_I_C);
 #pragma once
 
+#include <ceres/loss_function.h>
 #include <ceres/sized_cost_function.h>
 
 #include <Eigen/Core>
+#include <memory>
+#include <string>
 
 #include "vilma/core/camera.h"
 
@@ -36,5 +45,12 @@ class ReprojectionCostFunction : public ceres::SizedCostFunction<2, 7, 3, 7, 7> 
   Eigen::Vector2d uv_;
   double inverse_sigma_;
 };
+
+// The robust loss of a reprojection residual whitened by sigma_px: `type` "huber", "cauchy"
+// or "none" (nullptr). It turns robust at scale_sigma sigma (scale_sigma on the whitened
+// residual), or, when scale_px > 0, at scale_px pixels (scale_px / sigma_px whitened).
+// Throws std::invalid_argument for an unknown type or a scale or sigma that is not > 0.
+std::unique_ptr<ceres::LossFunction> ReprojectionLoss(const std::string& type, double scale_sigma,
+                                                      double scale_px, double sigma_px);
 
 }  // namespace vilma::mapping

@@ -3,8 +3,9 @@
 //
 // Problem: the reprojection residual (reprojection_residual.h) of every observation of every
 // good landmark stored in the selected missions (observers of other missions enter with their
-// poses held), robust loss in pixels; with `inertial`, the inertial residual
-// (inertial_residual.h) of every IMU edge between consecutive vertices, from its raw samples.
+// poses held), whitened by its keypoint's sigma, robust loss at k sigma (or at a scale in
+// pixels); with `inertial`, the inertial residual (inertial_residual.h) of every IMU edge
+// between consecutive vertices, from its raw samples.
 // Unknowns: vertex poses T_M_I, velocities and biases (inertial), landmark positions p_G;
 // baseframes T_G_M and camera extrinsics T_I_C are held (extrinsics freed by an option).
 //
@@ -43,11 +44,23 @@ struct ViOptimizationOptions {
   int ba_iterations_per_round = 3;  // then re-integration, outlier rejection, progress
   // Stop when a round's relative cost change falls below this (Ceres' function_tolerance).
   double ba_function_tolerance = 1e-6;
-  std::string ba_robust_loss = "huber";  // huber, cauchy or none
-  double ba_robust_loss_scale_px = 3.0;  // where the loss turns robust [px]
+  // cauchy, huber or none. Cauchy (default since 2026-11-27, Huber before): its influence
+  // falls off beyond the scale, so the tail of slid patches of refined keypoints (up to ~30
+  // sigma) weighs little; Huber keeps a constant influence there (docs/optimization.md).
+  std::string ba_robust_loss = "cauchy";
+  // Where the robust loss turns robust, in units of each observation's keypoint sigma (on the
+  // whitened residual): k sigma, i.e. 3 px for a 1 px detector keypoint and 0.45 px for a
+  // 0.15 px refined one at the default 3 (maplab's 3 sigma). Used when
+  // ba_robust_loss_scale_px is 0.
+  double ba_robust_loss_scale_sigma = 3.0;
+  // > 0: the scale in pixels instead, the same for every observation whatever its sigma
+  // (scale_px / sigma in whitened units); 0 (default): ba_robust_loss_scale_sigma. On maps
+  // whose keypoints are all at 1 px both give the same loss (the scale before 2026-11-27 was
+  // 3 px).
+  double ba_robust_loss_scale_px = 0.0;
   // Keypoint noise that whitens the reprojection residuals [px]: 0 (default) each
   // observation's own sigma_px from the map (mapstore::Keypoint; 1 px in maps that do not
-  // record it); > 0 overrides every observation's. The robust loss scale stays in pixels.
+  // record it); > 0 overrides every observation's.
   double keypoint_sigma_px = 0.0;
   // Landmark positions held. They then fix the frame G themselves, so no vertex is held for
   // the gauge (a calibration target's corners: docs/optimization.md "Target calibration").
