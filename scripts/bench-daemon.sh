@@ -22,6 +22,8 @@
 #                    localization columns: attempts, busy (skipped while the localizer worked),
 #                    accepted, VILMA_POSE frames, localizer stage p50 / max
 #                    (docs/benchmarks.md "Localization in the daemon")
+#   BENCH_DAEMON_CONFIG  a daemon config (--config) for the runs, e.g. mapping.map_builder with
+#                    track refinement (docs/mapping.md "Track refinement"); default the built-in
 #   BENCH_BEFORE_ESTIMATORD  another vilma-estimatord binary (e.g. the pre-split daemon of issue
 #                    19, ~/.cache/vilma/issue19/baseline-bin/vilma-estimatord): each repeat runs it
 #                    ("before") and then this build's ("after") on the same set with the same
@@ -99,7 +101,9 @@ for label in $labels; do
   url="udpm://239.255.76.67:$port?ttl=0"
   map_args=()
   if [ "$mapping" = 1 ]; then rm -rf "$work/map"; map_args=(--save-map "$work/map"); fi
-  "$estimatord" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" \
+  config_args=()
+  [ -n "${BENCH_DAEMON_CONFIG:-}" ] && config_args=(--config "$BENCH_DAEMON_CONFIG")
+  "$estimatord" "${config_args[@]}" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" \
     "${loc_args[@]}" > "$work/daemon.out" 2>&1 &
   daemon_pid=$!
   "$bin/vilma-latency-probe" --lcm-url "$url" --idle-timeout 2 > "$work/probe.out" 2>&1 &

@@ -37,6 +37,9 @@
 #   VILMA_DATASETS   datasets folder of scripts/make-datasets.sh (default
 #                    ${VILMA_CACHE:-~/.cache/vilma}/datasets); missing sets are made
 #   BENCH_WORK       folder for logs, maps and outputs (default ${VILMA_CACHE:-~/.cache/vilma}/bench-loc)
+#   VIO_MAP_DAEMON_CONFIG  daemon config (--config) for the session-0 map run of the vio and opt
+#                    maps, e.g. mapping.map_builder with track refinement (as in bench-optvi.sh;
+#                    give it its own BENCH_WORK); the query runs keep the built-in config
 # Maps, logs and daemon runs are reused while newer than their inputs and the binaries.
 set -euo pipefail
 
@@ -162,10 +165,15 @@ for w in "${worlds[@]}"; do
       # Session 0 mapped by the daemon from its LCM log, as scripts/demo.sh does.
       make_log "$m"
       map_ref=$work/$m-map
-      if stale "$work/$m-map.out" "$work/$m.lcmlog" "$bin/vilma-estimatord" ||
+      map_config=() map_inputs=("$work/$m.lcmlog" "$bin/vilma-estimatord")
+      if [ -n "${VIO_MAP_DAEMON_CONFIG:-}" ]; then
+        map_config=(--config "$VIO_MAP_DAEMON_CONFIG")
+        map_inputs+=("$VIO_MAP_DAEMON_CONFIG")
+      fi
+      if stale "$work/$m-map.out" "${map_inputs[@]}" ||
          [ -z "$(ls -A "$map_ref" 2> /dev/null)" ]; then
         rm -rf "$map_ref" "$work/$m-map.out"  # --save-map wants an absent or empty folder
-        daemon_run "$m-map" "$m" --save-map "$map_ref"
+        daemon_run "$m-map" "$m" "${map_config[@]}" --save-map "$map_ref"
       fi
       map_line=$(grep -o 'map: [0-9]* vertices, [0-9]* landmarks ([0-9]* good)' "$work/$m-map.out" || true)
       echo "bench-loc: $m, daemon's VI-map $map_ref: ${map_line#map: }" >&2
