@@ -43,6 +43,15 @@
 # Maps, logs and daemon runs are reused while newer than their inputs and the binaries.
 set -euo pipefail
 
+for arg in "$@"; do
+  case "$arg" in
+    -h | --help) sed -n '2,/^set -euo/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -*) echo "bench-loc: unknown option '$arg' (see --help)" >&2; exit 2 ;;
+    room | hall | street) ;;
+    *) echo "bench-loc: unknown world '$arg': expected room, hall or street (see --help)" >&2; exit 2 ;;
+  esac
+done
+
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
 build_dir=${VILMA_BUILD_DIR:-$repo_dir/build}
 cache=${VILMA_CACHE:-$HOME/.cache/vilma}
