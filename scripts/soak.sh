@@ -127,10 +127,10 @@ declare -A last_ticks
 for i in "${!procs[@]}"; do read -r t _ _ < <(proc_sample "${procs[$i]}"); last_ticks[$i]=$t; done
 start_ns=$(date +%s%N); last_ns=$start_ns
 echo "soak.sh: $minutes min, output in $out (load average now: $(cut -d' ' -f1-3 /proc/loadavg))"
-# With the kernel's autogroups on (Debian's default), every session (terminal, ssh login, job
+# With the kernel's autogroups on (as on this machine), every session (terminal, ssh login, job
 # started with setsid) is one scheduling group with an equal share of the CPU: nice and
 # SCHED_IDLE of other sessions' processes then do not yield to the soak. Measured 2026-11-27:
-# beside SCHED_IDLE work of two other sessions, 936 drops in 40 min and p99 up to 1.9 s; after
+# beside SCHED_IDLE work of two other sessions, 927 drops in 40 min and p99 up to 1.9 s; after
 # autogroups were turned off mid-run, 9 drops in the next 10 min, then none, p99 median 10.7 ms.
 # Recorded in machine.txt and the report, and warned about.
 autogroup=$(cat /proc/sys/kernel/sched_autogroup_enabled 2> /dev/null || echo "n/a")

@@ -276,6 +276,15 @@ TEST_CASE("a stereo match with a second, equally good place on the line is ambig
   CHECK(std::abs(single.rho - rho_true) < 0.02);
 }
 
+// The filter options of the plane-scene runs: few features (the scene's texture), stereo on.
+FilterOptions PlaneStereoOptions() {
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  options.stereo.enabled = true;
+  return options;
+}
+
 // Runs the filter over the scene (stereo or mono) and returns the final position error [m].
 double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, double seconds,
                       VioFilter** out_filter, VioFilter* filter) {
@@ -298,11 +307,9 @@ double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, dou
 
 TEST_CASE("stereo: new features start at the matched depth and the motion is tracked") {
   const PlaneScene scene(2);
-  FilterOptions options;
-  options.features.max_features = 12;
-  options.features.detect_below = 8;
-  FilterOptions stereo = options;
-  stereo.stereo.enabled = true;
+  FilterOptions stereo = PlaneStereoOptions();
+  FilterOptions options = stereo;
+  options.stereo.enabled = false;
   VioFilter mono_filter(scene.rig(), 0, options), stereo_filter(scene.rig(), 0, stereo);
   VioFilter* f = nullptr;
   const double mono_error = RunStereoScene(scene, options, 3.0, &f, &mono_filter);
@@ -338,10 +345,7 @@ TEST_CASE("stereo: new features start at the matched depth and the motion is tra
 // error) tracks the scene and finds the plane's depth as the separate updates do.
 TEST_CASE("stereo: the joint update of both cameras tracks the motion") {
   const PlaneScene scene(2);
-  FilterOptions options;
-  options.features.max_features = 12;
-  options.features.detect_below = 8;
-  options.stereo.enabled = true;
+  FilterOptions options = PlaneStereoOptions();
   options.stereo.joint_update = true;
   options.stereo.model_error_correlation = GENERATE(0.0, 0.9);
   VioFilter filter(scene.rig(), 0, options);
@@ -378,10 +382,7 @@ TEST_CASE("stereo: the joint update of both cameras tracks the motion") {
 // wrong depth lived.)
 TEST_CASE("stereo: a feature whose cameras disagree is removed after max_disagreements") {
   const PlaneScene scene(2);
-  FilterOptions options;
-  options.features.max_features = 12;
-  options.features.detect_below = 8;
-  options.stereo.enabled = true;
+  FilterOptions options = PlaneStereoOptions();
   options.stereo.init_depth = false;
   options.features.init_inverse_depth = 1.5;  // 0.67 m; the plane is at 3 m
   options.features.init_inverse_depth_sigma = 0.01;
@@ -429,10 +430,7 @@ TEST_CASE("stereo with estimated extrinsics keeps the rig's camera pair") {
   SensorRig rig = scene.rig();  // the renderer's rig is the truth
   const Transformation T_err(ExpSO3(Eigen::Vector3d(0.0, 0.0175, 0.0)), Eigen::Vector3d::Zero());
   for (CameraConfig& cam : rig.cameras) cam.T_I_C = T_err * cam.T_I_C;
-  FilterOptions options;
-  options.features.max_features = 12;
-  options.features.detect_below = 8;
-  options.stereo.enabled = true;
+  FilterOptions options = PlaneStereoOptions();
   options.estimate_extrinsics = true;
   VioFilter filter(rig, 0, options);
   VioFilter* f = nullptr;
