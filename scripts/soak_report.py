@@ -27,8 +27,10 @@ DAEMON_LAST = ["drops", "frames_dropped_busy", "images_dropped_pool", "images_dr
                "loc_attempts", "loc_ok"]
 METRICS_MAX = ["latency_total_p99_ms", "latency_filter_p99_ms", "latency_receive_p99_ms"]
 STORE_LAST = ["chunks_journaled", "bytes_journaled", "chunks_undecodable"]
-# mapstored's heap over its malloc arenas (mallinfo2; its status since 2026-11-27, session 32).
+# The heap over the malloc arenas (mallinfo2): mapstored's status since 2026-11-27 (session 32),
+# the daemon's since session 34.
 STORE_METRICS_LAST = ["heap_in_use_mb", "heap_free_mb"]
+DAEMON_METRICS_LAST = ["heap_in_use_mb", "heap_free_mb"]
 
 
 def read_proc(path):
@@ -92,6 +94,8 @@ def merge(rows, reports):
         for k in DAEMON_LAST:
             m[k] = d["counters"].get(k) if d else None
         m["daemon_state"] = d["state"] if d else None
+        for k in DAEMON_METRICS_LAST:
+            m["daemon_" + k] = d["metrics"].get(k) if d and "metrics" in d else None
         s = last["mapstored"]
         for k in STORE_LAST:
             m["mapstored_" + k] = s["counters"].get(k) if s else None
@@ -215,16 +219,16 @@ def main():
             growth = 100.0 * (a1 - a0) / a0 if a0 > 0 else float("inf")
             print(f"| {p} | {a0:.1f} | {a1:.1f} | {growth:+.1f} % | "
                   f"{max(m[f'{p}_anon_mb'] for m in merged):.1f} |")
-    if base.get("mapstored_heap_in_use_mb") is not None and \
-            last.get("mapstored_heap_in_use_mb") is not None:
-        h0, h1 = base["mapstored_heap_in_use_mb"], last["mapstored_heap_in_use_mb"]
-        in_use = [m["mapstored_heap_in_use_mb"] for m in merged
-                  if m.get("mapstored_heap_in_use_mb") is not None]
-        free = [m["mapstored_heap_free_mb"] for m in merged
-                if m.get("mapstored_heap_free_mb") is not None]
-        print(f"\nmapstored heap (mallinfo2), in use: {h0:.2f} MB at {base['t_s'] / 60:.1f} min, "
+    for p in ("daemon", "mapstored"):
+        if base.get(f"{p}_heap_in_use_mb") is None or last.get(f"{p}_heap_in_use_mb") is None:
+            continue
+        h0, h1 = base[f"{p}_heap_in_use_mb"], last[f"{p}_heap_in_use_mb"]
+        in_use = [m[f"{p}_heap_in_use_mb"] for m in merged
+                  if m.get(f"{p}_heap_in_use_mb") is not None]
+        free = [m[f"{p}_heap_free_mb"] for m in merged if m.get(f"{p}_heap_free_mb") is not None]
+        print(f"\n{p} heap (mallinfo2), in use: {h0:.2f} MB at {base['t_s'] / 60:.1f} min, "
               f"{h1:.2f} MB at the end, max {max(in_use):.2f} MB; free in malloc: "
-              f"{base['mapstored_heap_free_mb']:.2f} -> {last['mapstored_heap_free_mb']:.2f} MB, "
+              f"{base[f'{p}_heap_free_mb']:.2f} -> {last[f'{p}_heap_free_mb']:.2f} MB, "
               f"max {max(free):.2f} MB")
     if base["map_vertices"] is not None and last["map_vertices"] is not None and \
             last["map_vertices"] > base["map_vertices"]:

@@ -9,6 +9,7 @@
 #include <vilma/pose_t.hpp>
 #include <vilma/status_t.hpp>
 
+#include "vilma/core/heap.h"
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_url.h"
 
@@ -106,6 +107,12 @@ void PublishStage::PublishStatus(MessageSink& sink, int state, int64_t now_ns) {
     add_metric(std::string(name) + "_p50_ms", window->Percentile(0.5));
     add_metric(std::string(name) + "_p99_ms", window->Percentile(0.99));
   }
+  // The heap over every malloc arena (vilma/core/heap.h): a growing RSS with a flat
+  // heap_in_use_mb is the allocator keeping free pages, not state the daemon holds.
+  const HeapUsage heap = ReadHeapUsage();
+  add_metric("heap_in_use_mb", heap.in_use_mb);
+  add_metric("heap_free_mb", heap.free_mb);
+  add_metric("heap_mmapped_mb", heap.mmapped_mb);
   msg.num_metrics = static_cast<int32_t>(msg.metric_names.size());
   ++status_seq_;
   PublishMessage(sink, options_.status_channel, msg, &buffer_);

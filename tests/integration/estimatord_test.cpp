@@ -96,6 +96,12 @@ std::map<std::string, int64_t> Counters(const status_t& s) {
   return c;
 }
 
+std::map<std::string, double> Metrics(const status_t& s) {
+  std::map<std::string, double> m;
+  for (int i = 0; i < s.num_metrics; ++i) m[s.metric_names[i]] = s.metric_values[i];
+  return m;
+}
+
 // Collects VILMA_ODOM and VILMA_STATUS on a URL, on a thread of its own.
 class Subscriber {
  public:
@@ -244,6 +250,16 @@ TEST_CASE("vilma-estimatord live: replay -> daemon -> VILMA_ODOM, SIGTERM", "[in
   CHECK(Counters(status.back())["poses_published"] == static_cast<int64_t>(subscriber.odom().size()));
   CHECK(Counters(status.back())["imu_dropped_input_queue"] == 0);
   CHECK(Counters(status.back())["imu_dropped_filter_queue"] == 0);
+  // The heap over the malloc arenas (soak diagnostics, docs/reliability.md): present, and
+  // plausible for a daemon that holds images and a filter (tens of MB, not zero, not GBs).
+  const std::map<std::string, double> metrics = Metrics(status.back());
+  REQUIRE(metrics.count("heap_in_use_mb") == 1);
+  REQUIRE(metrics.count("heap_free_mb") == 1);
+  REQUIRE(metrics.count("heap_mmapped_mb") == 1);
+  CHECK(metrics.at("heap_in_use_mb") > 1.0);
+  CHECK(metrics.at("heap_in_use_mb") < 2000.0);
+  CHECK(metrics.at("heap_free_mb") >= 0.0);
+  CHECK(metrics.at("heap_mmapped_mb") <= metrics.at("heap_in_use_mb"));
 }
 
 TEST_CASE("vilma-estimatord survives bad input and reports it on VILMA_STATUS",

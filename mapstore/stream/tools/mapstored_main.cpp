@@ -1,7 +1,6 @@
 // vilma-mapstored: receives mission streams on VILMA_MISSION, journals them (fsync before ack),
 // acknowledges on VILMA_MISSION_ACK and finalizes map folders under --root (docs/mapstore.md).
 #include <lcm/lcm-cpp.hpp>
-#include <malloc.h>
 #include <signal.h>
 
 #include <atomic>
@@ -17,6 +16,7 @@
 
 #include "vilma/core/arg_cursor.h"
 #include "vilma/core/error.h"
+#include "vilma/core/heap.h"
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_safe_decode.h"
 #include "vilma/drivers/lcm_url.h"
@@ -141,13 +141,11 @@ int main(int argc, char** argv) {
   }
   // Buffers of 256 KiB and more are mmapped, and so go back to the kernel when freed: LCM
   // fragments and chunk payloads (up to 1 MiB, ~0.1-0.8 MB in a daemon's mission) are allocated
-  // and freed once per chunk. By default glibc raises its mmap threshold to the largest buffer
-  // freed so far and its trim threshold to twice that, so these buffers come from the arenas;
-  // in a soak under load (2026-11-27) a thread arena (most likely liblcm's receive thread's)
-  // held ~6 MB resident with 2.4 MB of heap in use in total, after malloc_trim (which, by
-  // glibc's source, trims only the main arena's top). Setting the threshold turns the dynamic
-  // adjustment off; the measured effect is in docs/reliability.md "Soak".
-  mallopt(M_MMAP_THRESHOLD, 256 * 1024);
+  // and freed once per chunk; with glibc's dynamic threshold they came from the arenas, and in a
+  // soak under load (2026-11-27) a thread arena (most likely liblcm's receive thread's) held
+  // ~6 MB resident with 2.4 MB of heap in use in total (vilma/core/heap.h; the measured effect
+  // in docs/reliability.md "Soak").
+  vilma::FixMallocMmapThreshold();
   // Chunks arrive in bursts of up to max_in_flight_chunks: a large receive buffer (lcm_url.h).
   const std::string lcm_url = vilma::WithDefaultRecvBufSize(vilma::ResolveLcmUrl(url));
   lcm::LCM lcm(lcm_url);
@@ -241,15 +239,14 @@ int main(int argc, char** argv) {
     // blocks included), free bytes malloc still holds, mmapped blocks [MB]. A growing RSS with
     // a flat heap_in_use_mb is allocator fragmentation, not state that mapstored keeps (soak
     // diagnostics, docs/reliability.md).
-    const struct mallinfo2 heap = mallinfo2();
+    const vilma::HeapUsage heap = vilma::ReadHeapUsage();
     auto metric = [&s](const char* name, double value) {
       s.metric_names.push_back(name);
       s.metric_values.push_back(value);
     };
-    constexpr double kMiB = 1024.0 * 1024.0;
-    metric("heap_in_use_mb", static_cast<double>(heap.uordblks + heap.hblkhd) / kMiB);
-    metric("heap_free_mb", static_cast<double>(heap.fordblks) / kMiB);
-    metric("heap_mmapped_mb", static_cast<double>(heap.hblkhd) / kMiB);
+    metric("heap_in_use_mb", heap.in_use_mb);
+    metric("heap_free_mb", heap.free_mb);
+    metric("heap_mmapped_mb", heap.mmapped_mb);
     s.num_metrics = static_cast<int32_t>(s.metric_names.size());
     lcm.publish(status_channel, &s);
   };
@@ -296,7 +293,7 @@ int main(int argc, char** argv) {
       // 1.4 -> 2.8 MB while mapstored's own state stayed bounded, docs/reliability.md).
       // malloc_trim(0) releases the free pages of every arena (madvise), called
       // once per 10 s, outside the receive-and-acknowledge loop.
-      if (++status_ticks % 10 == 0) malloc_trim(0);
+      if (++status_ticks % 10 == 0) vilma::ReleaseFreeHeap();
     }
   }
   Log("stopping");
