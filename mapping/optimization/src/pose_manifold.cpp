@@ -56,35 +56,53 @@ Eigen::Matrix<double, 6, Eigen::Dynamic> GaugePoseManifold::Basis(const double* 
     B.block<3, 1>(0, 1) = d.cross(e1);
     column = 2;
   }
-  if (!fix_yaw_) {
+  if (!fix_heading_) {
     B.block<3, 3>(3, column).setIdentity();
     return B;
   }
-  // Body-frame directions orthogonal to the world's up axis seen from the body.
+  // δ_k moves R by Exp(t_k) on A's side, t_k = e_k − e_z (g·e_k) (header); in the body frame
+  // (PoseManifold's right perturbation, R Exp(Rᵀ t) = Exp(t) R) that is Rᵀ t_k.
   const Eigen::Quaterniond q = Eigen::Map<const Eigen::Quaterniond>(x + 3).normalized();
-  const Eigen::Vector3d up_B = q.conjugate() * Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d seed =
-      std::abs(up_B.x()) < 0.9 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
-  const Eigen::Vector3d e1 = up_B.cross(seed).normalized();
-  const Eigen::Vector3d e2 = up_B.cross(e1);
-  B.block<3, 1>(3, column) = e1;
-  B.block<3, 1>(3, column + 1) = e2;
+  Eigen::Quaterniond m = q * q_A_B_held_.conjugate();
+  if (m.w() < 0.0) m.coeffs() = -m.coeffs();
+  const Eigen::Vector2d g = Eigen::Vector2d(m.y(), -m.x()) / m.w();
+  for (int k = 0; k < 2; ++k) {
+    Eigen::Vector3d t = Eigen::Vector3d::Unit(k);
+    t.z() = -g(k);
+    B.block<3, 1>(3, column + k) = q.conjugate() * t;
+  }
   return B;
 }
 
+Eigen::Matrix<double, Eigen::Dynamic, 6> GaugePoseManifold::BasisInverse(const double* x) const {
+  const Eigen::Matrix<double, 6, Eigen::Dynamic> B = Basis(x);
+  const Eigen::MatrixXd BtB = B.transpose() * B;
+  return BtB.ldlt().solve(B.transpose());
+}
+
 bool GaugePoseManifold::Plus(const double* x, const double* delta, double* x_plus_delta) const {
-  const Eigen::Map<const Eigen::VectorXd> d(delta, TangentSize());
-  const Eigen::Matrix<double, 6, 1> full = Basis(x) * d;
-  PoseManifold().Plus(x, full.data(), x_plus_delta);
-  if (fix_yaw_) {
-    // The basis holds the yaw to first order; put it back exactly: R = Rz(yaw) S (swing S
-    // about a horizontal axis), so Rz(α) R has yaw + α.
-    Eigen::Map<Eigen::Quaterniond> q(x_plus_delta + 3);
-    const double correction = YawAboutZ(Eigen::Map<const Eigen::Quaterniond>(x + 3)) -
-                              YawAboutZ(q);
-    q = (Eigen::Quaterniond(Eigen::AngleAxisd(correction, Eigen::Vector3d::UnitZ())) * q)
-            .normalized();
+  if (!fix_heading_) {
+    const Eigen::Map<const Eigen::VectorXd> d(delta, TangentSize());
+    const Eigen::Matrix<double, 6, 1> full = Basis(x) * d;
+    return PoseManifold().Plus(x, full.data(), x_plus_delta);
   }
+  // Position: the free part as a plain sum (held: unchanged).
+  Eigen::Map<const Eigen::Vector3d> p(x);
+  Eigen::Map<Eigen::Vector3d> p_out(x_plus_delta);
+  p_out = p;
+  int column = 0;
+  if (!fix_position_) {
+    const Eigen::Matrix<double, 6, Eigen::Dynamic> B = Basis(x);
+    column = TangentSize() - 2;
+    for (int k = 0; k < column; ++k) p_out += B.block<3, 1>(0, k) * delta[k];
+  }
+  // Rotation: Exp(h) R about the horizontal h of A, then back onto the held heading exactly.
+  const Eigen::Quaterniond q = Eigen::Map<const Eigen::Quaterniond>(x + 3).normalized();
+  const Eigen::Vector3d h(delta[column], delta[column + 1], 0.0);
+  const Eigen::Quaterniond q1 = (ExpSO3(h) * q).normalized();
+  const double c = YawAboutZ(q1 * q_A_B_held_.conjugate());
+  Eigen::Map<Eigen::Quaterniond> q_out(x_plus_delta + 3);
+  q_out = (Eigen::Quaterniond(Eigen::AngleAxisd(-c, Eigen::Vector3d::UnitZ())) * q1).normalized();
   return true;
 }
 
@@ -99,9 +117,10 @@ bool GaugePoseManifold::PlusJacobian(const double* x, double* jacobian) const {
 bool GaugePoseManifold::Minus(const double* y, const double* x, double* y_minus_x) const {
   Eigen::Matrix<double, 6, 1> full;
   PoseManifold().Minus(y, x, full.data());
-  // Least-squares coordinates in the (orthonormal) basis.
+  // Least-squares coordinates in the basis (orthonormal unless the heading is held away from
+  // its reference).
   Eigen::Map<Eigen::VectorXd> out(y_minus_x, TangentSize());
-  out = Basis(x).transpose() * full;
+  out = BasisInverse(x) * full;
   return true;
 }
 
@@ -109,7 +128,7 @@ bool GaugePoseManifold::MinusJacobian(const double* x, double* jacobian) const {
   Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>> J(
       jacobian, TangentSize(), 7);
   J.setZero();
-  J.leftCols<6>() = Basis(x).transpose();
+  J.leftCols<6>() = BasisInverse(x);
   return true;
 }
 

@@ -252,8 +252,9 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   // ---- which blocks move
   // Owned here (the problem does not take ownership); they outlive the solve.
   PoseManifold pose_manifold;
-  GaugePoseManifold position_yaw_fixed(true, true);
-  std::vector<std::unique_ptr<GaugePoseManifold>> scale_gauges;
+  // Per cluster: the anchor vertex's position and heading held (inertial), or the visual-only
+  // scale gauge.
+  std::vector<std::unique_ptr<GaugePoseManifold>> gauges;
   ceres::SubsetManifold biases_fixed(9, {3, 4, 5, 6, 7, 8});
   for (auto& [id, pose] : poses) {
     if (!problem.HasParameterBlock(pose)) continue;
@@ -318,7 +319,11 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     }
     if (in_problem.empty()) continue;
     if (options.inertial) {
-      problem.SetManifold(in_problem[0], &position_yaw_fixed);
+      // Position and heading of the first vertex in M held at their values now (docs/
+      // optimization.md "Gauge": its roll and pitch move without turning the map).
+      gauges.push_back(std::make_unique<GaugePoseManifold>(
+          true, Eigen::Map<const Eigen::Quaterniond>(in_problem[0] + 3)));
+      problem.SetManifold(in_problem[0], gauges.back().get());
       continue;
     }
     // Visual only: the first vertex's pose, and the scale: the distance to the vertex farthest
@@ -335,9 +340,9 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
       }
     }
     if (far != nullptr && far_distance > 1e-3) {
-      scale_gauges.push_back(std::make_unique<GaugePoseManifold>(
-          false, false, Eigen::Map<const Eigen::Vector3d>(far) - p0));
-      problem.SetManifold(far, scale_gauges.back().get());
+      gauges.push_back(std::make_unique<GaugePoseManifold>(
+          Eigen::Vector3d(Eigen::Map<const Eigen::Vector3d>(far) - p0)));
+      problem.SetManifold(far, gauges.back().get());
     }
   }
 
