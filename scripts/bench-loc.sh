@@ -196,7 +196,8 @@ for w in "${worlds[@]}"; do
       align=(--align-from "$work/$m-map-align.json")
       if [ "$kind" = opt ]; then
         # The same map after the console's `lc; rtl; optvi` (docs/optimization.md). Its gauge
-        # keeps the first vertex's position and yaw, so G and the alignment stay the VIO map's.
+        # keeps the first vertex's position and heading in M (the pose of session 0's first
+        # odometry message), so G and the alignment stay the VIO map's.
         if stale "$work/$m-map-opt.out" "$work/$m-map.out" "$bin/vilma" ||
            [ ! -d "$work/$m-map-opt" ]; then
           "$bin/vilma" console -c "load $map_ref; lc; rtl; optvi; save --out=$work/$m-map-opt \
