@@ -337,6 +337,7 @@ void VioFilter::AddFeatures() {
     track.failures = 0;
     track.age = 0;
     track.disagreements = 0;
+    track.id = next_feature_id_++;
     const int k = FeatureIndex(static_cast<int>(slot));
     P_.middleRows<kFeatureDim>(k).setZero();
     P_.middleCols<kFeatureDim>(k).setZero();

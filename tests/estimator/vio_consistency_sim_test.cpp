@@ -19,7 +19,8 @@
 // "default", which `vilma vio` uses on the simulated sets; stereo.enabled is set per run);
 // VILMA_DIAG_OUT a folder for the per-frame CSVs (default ~/.cache/vilma/diag);
 // VILMA_DIAG_SETS a comma-separated list of sets (default: the test case's); VILMA_DIAG_MODES
-// "mono", "stereo" or "mono,stereo" (default).
+// "mono", "stereo" or "mono,stereo" (default); VILMA_DIAG_DATASETS the folder of the sets
+// (default ~/.cache/vilma/datasets).
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -266,7 +267,9 @@ void PrintWindows(const std::string& title, const std::vector<FrameError>& error
 void DiagnoseSet(const std::string& name) {
   const char* home = std::getenv("HOME");
   const std::filesystem::path cache = std::filesystem::path(home ? home : "/") / ".cache/vilma";
-  const std::filesystem::path dir = cache / "datasets" / name;
+  const char* sets_dir = std::getenv("VILMA_DIAG_DATASETS");  // default ~/.cache/vilma/datasets
+  const std::filesystem::path dir =
+      (sets_dir && *sets_dir ? std::filesystem::path(sets_dir) : cache / "datasets") / name;
   if (!std::filesystem::exists(dir / "mav0/cam1")) {
     VILMA_SKIP(dir << " (a stereo simulated set) is not there");
   }

@@ -1,11 +1,13 @@
 #include "vilma/estimator/vio_filter.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
 #include <string>
+#include <vector>
 #include <unistd.h>
 
 #include "vilma/core/asl_dataset.h"
@@ -145,6 +147,26 @@ TEST_CASE("a single feature's inverse distance converges to the true value") {
   // And the uncertainty shrank from the initial 0.5 [1/m].
   const int k = FeatureIndex(0);
   CHECK(std::sqrt(filter.covariance()(k + 2, k + 2)) < 0.1);
+}
+
+TEST_CASE("every detected feature gets its own id") {
+  FilterOptions options;
+  VioFilter filter(TheScene().rig, 0, options);
+  for (int slot = 0; slot < options.features.max_features; ++slot)
+    CHECK(filter.feature_id(slot) == 0);
+  int resets = 0;
+  RunConfig config;
+  config.seconds = 3.0;
+  RunScene(config, &filter, &resets);
+  std::vector<int64_t> ids;
+  for (int slot = 0; slot < options.features.max_features; ++slot) {
+    if (filter.state().features[static_cast<std::size_t>(slot)].active)
+      ids.push_back(filter.feature_id(slot));
+  }
+  REQUIRE(ids.size() >= 2);
+  std::sort(ids.begin(), ids.end());
+  CHECK(ids.front() >= 1);
+  CHECK(std::adjacent_find(ids.begin(), ids.end()) == ids.end());  // no id twice
 }
 
 TEST_CASE("a frame drop, an IMU gap and a duplicated IMU sample don't break the filter") {

@@ -116,6 +116,10 @@ class VioFilter {
   const Eigen::MatrixXd& covariance() const { return P_; }
   const FilterStats& stats() const { return stats_; }
   Transformation T_M_I() const { return Transformation(x_.q_M_I, x_.p_M_I); }
+  // A number given to the feature in `slot` when it was detected (1, 2, ... in order of
+  // detection, never reused, also across resets; 0 for a slot that held none since the last
+  // (re)start): tells a new feature in a reused slot from the old one (diagnostics, tests).
+  int64_t feature_id(int slot) const { return tracks_[static_cast<std::size_t>(slot)].id; }
 
  private:
   struct Track {  // photometric bookkeeping of one slot
@@ -125,6 +129,7 @@ class VioFilter {
     int failures = 0;
     int age = 0;
     int disagreements = 0;  // consecutive frames: C1 updated, C2 in view but rejected
+    int64_t id = 0;         // feature_id()
   };
 
   bool Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not);
@@ -178,6 +183,7 @@ class VioFilter {
   FilterState x_;
   Eigen::MatrixXd P_;
   std::vector<Track> tracks_;
+  int64_t next_feature_id_ = 1;
   std::vector<ImuSample> imu_;  // samples not yet consumed (plus the last one before x_.t_ns)
   FilterStats stats_;
   int frames_without_updates_ = 0;
