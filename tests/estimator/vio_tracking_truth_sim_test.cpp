@@ -21,8 +21,10 @@
 // one realization of the noise, this writes copies of a set with the same images (links) and
 // the same trajectory but another IMU realization: VILMA_DIAG_IMU_VARIANTS, a comma-separated
 // list of N (N = 0 reproduces the set's own IMU file, N >= 1 draws the IMU from
-// DeriveSeed(DeriveSeed(seed, 2000 + session), N)) or "exact" (no white noise, no random walk,
-// zero biases), into VILMA_DIAG_OUT/<set>-imu<N>.
+// DeriveSeed(DeriveSeed(seed, 2000 + session), N)), "exact" (no white noise, no random walk,
+// zero biases), or one part of the noise model drawn from the set's own stream: "gyro" (the
+// gyroscope's white noise, bias and walk; exact accelerometer), "accel" (the converse), "white"
+// (white noise only), "walk" (biases and walk only), into VILMA_DIAG_OUT/<set>-imu<N>.
 //
 // Third, "feature dynamics against the simulator's geometry": the filter's propagation
 // (PropagateMean, midpoint IMU measurement per interval as VioFilter::Propagate) started from
@@ -260,6 +262,20 @@ void WriteImuVariant(const std::filesystem::path& dir, const std::string& varian
   uint64_t seed = sim::DeriveSeed(so.seed, 2000 + static_cast<uint64_t>(so.session));
   if (variant == "exact") {
     imu_options = sim::ImuSimOptions::NoiseFree();
+  } else if (variant == "gyro") {  // the gyroscope's noise, bias and walk; an exact accelerometer
+    imu_options.noise.accelerometer_noise_density = 0.0;
+    imu_options.noise.accelerometer_random_walk = 0.0;
+    imu_options.initial_accel_bias_sigma = 0.0;
+  } else if (variant == "accel") {  // the accelerometer's; an exact gyroscope
+    imu_options.noise.gyroscope_noise_density = 0.0;
+    imu_options.noise.gyroscope_random_walk = 0.0;
+    imu_options.initial_gyro_bias_sigma = 0.0;
+  } else if (variant == "white") {  // white noise only: zero biases, no walk
+    imu_options.add_bias_random_walk = false;
+    imu_options.initial_gyro_bias_sigma = 0.0;
+    imu_options.initial_accel_bias_sigma = 0.0;
+  } else if (variant == "walk") {  // biases and their walk, no white noise
+    imu_options.add_white_noise = false;
   } else if (std::stoi(variant) > 0) {
     seed = sim::DeriveSeed(seed, static_cast<uint64_t>(std::stoi(variant)));
   }
