@@ -232,6 +232,26 @@ class CancelAfter : public ProgressObserver {
   std::size_t done_ = 0;
 };
 
+TEST_CASE("optvi: ba_imu_noise_scale multiplies the IMU densities (inertial cost / scale^2)") {
+  SimulatedViMap s = MakeSimulatedViMap(2.0);
+  Perturb(&s, 0.02, 0.2, 7);
+  ViOptimizationOptions o = Quiet();
+  o.visual = false;  // the inertial terms alone
+  o.ba_initialize_imu_states = false;
+  o.ba_num_iterations = 1;
+  mapstore::VIMap a = s.map.Clone();
+  const double cost1 = OptimizeViMap(o, &a).initial_cost;
+  o.ba_imu_noise_scale = 4.0;
+  mapstore::VIMap b = s.map.Clone();
+  const double cost4 = OptimizeViMap(o, &b).initial_cost;
+  REQUIRE(cost1 > 1.0);
+  // Every density (white and random walk) times 4: every covariance times 16 (to 1 %: the
+  // preintegration's fixed floors, 1e-12 on the covariance and 1e-9 on a zero random walk).
+  CHECK(cost4 / cost1 == Approx(1.0 / 16.0).epsilon(1e-2));
+  o.ba_imu_noise_scale = 0.0;
+  CHECK_THROWS_WITH(OptimizeViMap(o, &b), Catch::Contains("ba_imu_noise_scale"));
+}
+
 TEST_CASE("optvi: bad input and cancel leave the map untouched") {
   SimulatedViMap s = MakeSimulatedViMap(2.0);
   Perturb(&s, 0.02, 0.2, 6);

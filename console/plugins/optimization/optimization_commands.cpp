@@ -31,6 +31,8 @@ Command<O> OptimizationFlags(Command<O> c) {
           .Flag("ba_fix_landmarks", &O::ba_fix_landmarks, "hold the landmark positions")
           .Flag("ba_fix_biases", &O::ba_fix_biases, "hold the IMU biases")
           .Flag("ba_fix_extrinsics", &O::ba_fix_extrinsics, "hold the camera extrinsics T_I_C")
+          .Flag("ba_imu_noise_scale", &O::ba_imu_noise_scale,
+                "multiplies the rig's IMU noise densities and random walks (optvi; 1: as they are)")
           .Flag("ba_estimate_time_offset", &O::ba_estimate_time_offset,
                 "estimate a camera-IMU time offset per camera (optvi)")
           .Flag("ba_estimate_baseframe_tilt", &O::ba_estimate_baseframe_tilt,

@@ -160,6 +160,11 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
       }
       if (chain.size() < 2) continue;
       const SensorRig& rig = map->mission(m).rig;
+      ImuNoise noise = rig.imu.noise;  // times ba_imu_noise_scale (model mismatch)
+      noise.gyroscope_noise_density *= options.ba_imu_noise_scale;
+      noise.accelerometer_noise_density *= options.ba_imu_noise_scale;
+      noise.gyroscope_random_walk *= options.ba_imu_noise_scale;
+      noise.accelerometer_random_walk *= options.ba_imu_noise_scale;
       for (const mapstore::EdgeId& eid : map->edge_ids(m)) {
         const mapstore::Edge& e = map->edge(eid);
         if (e.type != EdgeType::kImu) continue;
@@ -170,7 +175,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
         const mapstore::Vertex& from = map->vertex(e.from);
         try {
           preintegrations.push_back(std::make_unique<ImuPreintegration>(
-              e.imu_samples, rig.imu.noise, from.gyro_bias, from.accel_bias));
+              e.imu_samples, noise, from.gyro_bias, from.accel_bias));
         } catch (const std::invalid_argument& error) {
           throw std::invalid_argument("IMU edge " + eid.Hex() + ": " + error.what());
         }

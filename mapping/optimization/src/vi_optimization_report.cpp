@@ -25,6 +25,9 @@ std::string ViOptimizationOptions::Validate() const {
   if (!(keypoint_sigma_px >= 0 && std::isfinite(keypoint_sigma_px))) {
     return "keypoint_sigma_px: expected >= 0 (0: each keypoint's own sigma from the map)";
   }
+  if (!(ba_imu_noise_scale > 0 && std::isfinite(ba_imu_noise_scale))) {
+    return "ba_imu_noise_scale: expected > 0 (1: the rig's IMU densities)";
+  }
   if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
   if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
   if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&

@@ -66,6 +66,12 @@ struct ViOptimizationOptions {
   // the gauge (a calibration target's corners: docs/optimization.md "Target calibration").
   bool ba_fix_landmarks = false;
   bool ba_fix_biases = false;      // biases held (velocities stay free)
+  // Multiplies the rig's four IMU densities (white noise and random walk of gyroscope and
+  // accelerometer) in the inertial residuals' covariance, as the VIO's noise.imu_noise_scale:
+  // for an IMU whose real errors (vibration on a MAV) exceed its datasheet densities. 1
+  // (default): the rig's densities as they are. On the real EuRoC moving slice the datasheet
+  // densities make optvi trust the IMU's unmodelled errors (docs/optimization-scale.md).
+  double ba_imu_noise_scale = 1.0;
   bool ba_fix_extrinsics = true;   // camera extrinsics T_I_C held
   // A camera-IMU time offset per mission camera (time_offset_residual.h): how far the image's
   // exposure lies after its vertex time [s], from 0. Needs inertial and visual terms (the
