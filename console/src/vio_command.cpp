@@ -250,23 +250,8 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     }
     double map_ms = 0.0;
 
-    // Arrival order as vilma-replay writes a log: all streams merged by stamp, the IMU before
-    // the cameras at equal stamps, cameras by index (stable).
-    struct Event {
-      int64_t t_ns;
-      int stream;  // -1 IMU, else camera
-      std::size_t index;
-    };
-    std::vector<Event> events;
-    events.reserve(imu.size() + frames.size() * cameras.size());
-    for (std::size_t i = 0; i < imu.size(); ++i) events.push_back({imu[i].t_ns, -1, i});
-    for (int c : cameras) {
-      const auto& cf = dataset.cameras()[static_cast<std::size_t>(c)].frames;
-      for (std::size_t i = 0; i < cf.size(); ++i) events.push_back({cf[i].t_ns, c, i});
-    }
-    std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
-      return a.t_ns != b.t_ns ? a.t_ns < b.t_ns : a.stream < b.stream;
-    });
+    // Arrival order as vilma-replay writes a log (ArrivalOrder, asl_dataset.h).
+    const std::vector<AslEvent> events = ArrivalOrder(dataset, cameras);
 
     Trajectory trajectory;
     std::vector<double> frame_ms;
@@ -310,7 +295,7 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
       }
     };
     const auto wall_start = std::chrono::steady_clock::now();
-    for (const Event& e : events) {
+    for (const AslEvent& e : events) {
       if (e.stream < 0) {
         pipeline.AddImu(imu[e.index]);
       } else {

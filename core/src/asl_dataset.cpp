@@ -6,6 +6,7 @@
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
+#include <stdexcept>
 
 #include "vilma/core/error.h"
 
@@ -300,6 +301,31 @@ void AslDatasetWriter::Finish() {
     WriteFileAtomically(
         (fs::path(mav0_dir_) / "state_groundtruth_estimate0" / "data.csv").string(), gt);
   }
+}
+
+std::vector<AslEvent> ArrivalOrder(const AslDataset& dataset, const std::vector<int>& cameras,
+                                   int64_t t_begin_ns, int64_t t_end_ns) {
+  const auto in_range = [&](int64_t t) { return t >= t_begin_ns && t <= t_end_ns; };
+  std::vector<AslEvent> events;
+  const std::vector<ImuSample>& imu = dataset.imu();
+  for (std::size_t i = 0; i < imu.size(); ++i) {
+    if (in_range(imu[i].t_ns)) events.push_back({imu[i].t_ns, -1, i});
+  }
+  for (int c : cameras) {
+    if (c < 0 || c >= static_cast<int>(dataset.cameras().size())) {
+      throw std::out_of_range("ArrivalOrder: camera " + std::to_string(c) + " of " +
+                              std::to_string(dataset.cameras().size()));
+    }
+    const std::vector<CameraFrame>& frames = dataset.cameras()[static_cast<std::size_t>(c)].frames;
+    for (std::size_t i = 0; i < frames.size(); ++i) {
+      if (in_range(frames[i].t_ns)) events.push_back({frames[i].t_ns, c, i});
+    }
+  }
+  // Equal stamps: the IMU (-1) first, then the cameras by index.
+  std::stable_sort(events.begin(), events.end(), [](const AslEvent& a, const AslEvent& b) {
+    return a.t_ns != b.t_ns ? a.t_ns < b.t_ns : a.stream < b.stream;
+  });
+  return events;
 }
 
 }  // namespace vilma

@@ -3,6 +3,8 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
+#include <stdexcept>
+#include <tuple>
 
 #include "core/test_data.h"
 #include "vilma/core/error.h"
@@ -130,6 +132,44 @@ TEST_CASE("An unreadable image is named in the error", "[asl]") {
   WriteText(dir.File("bad.png"), "not a png");
   CHECK_THROWS_WITH(AslDataset::LoadImage(dir.File("bad.png")),
                     Catch::Contains("bad.png") && Catch::Contains("readable image"));
+}
+
+
+TEST_CASE("ArrivalOrder merges IMU and cameras by stamp, IMU first, cameras by index", "[asl]") {
+  testing::TempDir dir;
+  AslDatasetWriter writer(dir.path(), 2);
+  const cv::Mat image(8, 8, CV_8UC1, cv::Scalar(7));
+  // Frames at 1000 and 1050 on both cameras; IMU every 25 ns from 1000 to 1100.
+  for (int i = 0; i < 2; ++i) {
+    writer.AddImage(0, 1000 + i * 50, image);
+    writer.AddImage(1, 1000 + i * 50, image);
+  }
+  for (int i = 0; i < 5; ++i) {
+    ImuSample s;
+    s.t_ns = 1000 + i * 25;
+    writer.AddImu(s);
+  }
+  writer.Finish();
+  const AslDataset dataset = AslDataset::Open(dir.path());
+
+  // (t_ns, stream, index) in the order vilma-replay sends them.
+  using Triple = std::tuple<int64_t, int, std::size_t>;
+  auto triples = [](const std::vector<AslEvent>& events) {
+    std::vector<Triple> t;
+    for (const AslEvent& e : events) t.emplace_back(e.t_ns, e.stream, e.index);
+    return t;
+  };
+  // The camera list's order does not matter: at equal stamps cameras go by index.
+  const std::vector<Triple> expected = {{1000, -1, 0}, {1000, 0, 0}, {1000, 1, 0}, {1025, -1, 1},
+                                        {1050, -1, 2}, {1050, 0, 1}, {1050, 1, 1}, {1075, -1, 3},
+                                        {1100, -1, 4}};
+  CHECK(triples(ArrivalOrder(dataset, {0, 1})) == expected);
+  CHECK(triples(ArrivalOrder(dataset, {1, 0})) == expected);
+  // One camera; a time window (inclusive).
+  CHECK(triples(ArrivalOrder(dataset, {1}, 1025, 1050)) ==
+        std::vector<Triple>{{1025, -1, 1}, {1050, -1, 2}, {1050, 1, 1}});
+  CHECK(triples(ArrivalOrder(dataset, {})).size() == 5);
+  CHECK_THROWS_AS(ArrivalOrder(dataset, {2}), std::out_of_range);
 }
 
 }  // namespace

@@ -114,20 +114,7 @@ std::vector<FrameError> RunAgainstTruth(const std::filesystem::path& dir, bool s
   po.cameras = stereo ? std::vector<int>{0, options.stereo.camera} : std::vector<int>{0};
   VioPipeline pipeline(rig, po);
 
-  struct Event {
-    int64_t t_ns;
-    int stream;
-    std::size_t index;
-  };
-  std::vector<Event> events;
-  for (std::size_t i = 0; i < dataset.imu().size(); ++i) events.push_back({dataset.imu()[i].t_ns, -1, i});
-  for (int c : po.cameras) {
-    const auto& cf = dataset.cameras()[static_cast<std::size_t>(c)].frames;
-    for (std::size_t i = 0; i < cf.size(); ++i) events.push_back({cf[i].t_ns, c, i});
-  }
-  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
-    return a.t_ns != b.t_ns ? a.t_ns < b.t_ns : a.stream < b.stream;
-  });
+  const std::vector<AslEvent> events = ArrivalOrder(dataset, po.cameras);
 
   std::vector<FrameError> errors;
   bool aligned = false;
@@ -193,7 +180,7 @@ std::vector<FrameError> RunAgainstTruth(const std::filesystem::path& dir, bool s
     e.stereo_updated = o.filter.num_stereo_updated;
     errors.push_back(e);
   };
-  for (const Event& ev : events) {
+  for (const AslEvent& ev : events) {
     if (ev.stream < 0) {
       pipeline.AddImu(dataset.imu()[ev.index]);
     } else {

@@ -109,21 +109,7 @@ std::vector<Observation> TrackAgainstTruth(const std::filesystem::path& dir, boo
   po.cameras = stereo ? std::vector<int>{0, options.stereo.camera} : std::vector<int>{0};
   VioPipeline pipeline(rig, po);
 
-  struct Event {
-    int64_t t_ns;
-    int stream;
-    std::size_t index;
-  };
-  std::vector<Event> events;
-  for (std::size_t i = 0; i < dataset.imu().size(); ++i)
-    events.push_back({dataset.imu()[i].t_ns, -1, i});
-  for (int c : po.cameras) {
-    const auto& cf = dataset.cameras()[static_cast<std::size_t>(c)].frames;
-    for (std::size_t i = 0; i < cf.size(); ++i) events.push_back({cf[i].t_ns, c, i});
-  }
-  std::stable_sort(events.begin(), events.end(), [](const Event& a, const Event& b) {
-    return a.t_ns != b.t_ns ? a.t_ns < b.t_ns : a.stream < b.stream;
-  });
+  const std::vector<AslEvent> events = ArrivalOrder(dataset, po.cameras);
 
   std::map<int64_t, Landmark> landmarks;
   std::vector<Observation> observations;
@@ -169,7 +155,7 @@ std::vector<Observation> TrackAgainstTruth(const std::filesystem::path& dir, boo
       observations.push_back(ob);
     }
   };
-  for (const Event& ev : events) {
+  for (const AslEvent& ev : events) {
     if (ev.stream < 0) {
       pipeline.AddImu(dataset.imu()[ev.index]);
     } else {

@@ -264,13 +264,6 @@ void LogSink::Finish() { writer_->Close(); }
 
 namespace {
 
-// One message of the merged sequence.
-struct ReplayEvent {
-  int64_t t_ns;
-  int32_t stream;  // -1 = IMU, else camera index
-  int32_t index;   // into the stream's vector
-};
-
 // Decodes the images of the replay in order on a worker thread, `capacity` ahead of the
 // consumer. The bounded buffer keeps memory flat however long the dataset is. (A mutex and a
 // condition variable are fine here: one hand-over per image at <= a few hundred Hz.)
@@ -367,29 +360,16 @@ ReplaySummary RunReplay(const AslDataset& dataset, const ReplayOptions& options,
   const int64_t t_begin = t_first + SecondsToNs(options.start_s);
   const int64_t t_end = options.end_s < 0 ? std::numeric_limits<int64_t>::max()
                                           : t_first + SecondsToNs(options.end_s);
-  auto in_range = [&](int64_t t) { return t >= t_begin && t <= t_end; };
 
-  // Merge of all streams: sort by (time, stream) with the IMU (-1) before the cameras.
-  std::vector<ReplayEvent> events;
-  for (size_t i = 0; i < imu.size(); ++i) {
-    if (in_range(imu[i].t_ns)) events.push_back({imu[i].t_ns, -1, static_cast<int32_t>(i)});
-  }
-  for (size_t c = 0; c < cameras.size(); ++c) {
-    const std::vector<CameraFrame>& frames = cameras[c].frames;
-    for (size_t i = 0; i < frames.size(); ++i) {
-      if (in_range(frames[i].t_ns)) {
-        events.push_back({frames[i].t_ns, static_cast<int32_t>(c), static_cast<int32_t>(i)});
-      }
-    }
-  }
-  std::stable_sort(events.begin(), events.end(), [](const ReplayEvent& a, const ReplayEvent& b) {
-    return a.t_ns != b.t_ns ? a.t_ns < b.t_ns : a.stream < b.stream;
-  });
+  // Merge of all streams by stamp, the IMU before the cameras at equal stamps (asl_dataset.h).
+  std::vector<int> all_cameras(cameras.size());
+  for (size_t c = 0; c < cameras.size(); ++c) all_cameras[c] = static_cast<int>(c);
+  const std::vector<AslEvent> events = ArrivalOrder(dataset, all_cameras, t_begin, t_end);
   if (events.empty()) return summary;
   summary.data_s = NsToSeconds(events.back().t_ns - events.front().t_ns);
 
   std::vector<std::string> image_paths;
-  for (const ReplayEvent& e : events) {
+  for (const AslEvent& e : events) {
     if (e.stream >= 0) image_paths.push_back(cameras[e.stream].frames[e.index].image_path);
   }
   std::unique_ptr<ImagePrefetcher> prefetcher;
@@ -406,7 +386,7 @@ ReplaySummary RunReplay(const AslDataset& dataset, const ReplayOptions& options,
   SteadyClock::duration image_wait{0};
   double max_lateness_s = 0.0;
 
-  for (const ReplayEvent& e : events) {
+  for (const AslEvent& e : events) {
     if (stop != nullptr && stop->load()) {
       summary.interrupted = true;
       break;

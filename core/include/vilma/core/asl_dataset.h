@@ -7,6 +7,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <cstddef>
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
@@ -62,6 +63,22 @@ class AslDataset {
   std::vector<GroundTruthState> ground_truth_;
   std::vector<std::string> warnings_;
 };
+
+// One message of a dataset in arrival order: IMU sample `index` (stream -1) or frame `index` of
+// camera `stream`.
+struct AslEvent {
+  int64_t t_ns = 0;
+  int stream = -1;
+  std::size_t index = 0;
+};
+
+// The dataset's messages in the order vilma-replay sends (and logs) them: the IMU samples and
+// the frames of `cameras` merged by stamp, at equal stamps the IMU first and then the cameras by
+// index (a stable sort), only stamps in [t_begin_ns, t_end_ns]. Feeding a VioPipeline in this
+// order is what makes `vilma vio` equal to a replay through the daemon. Throws
+// std::out_of_range for a camera the dataset does not have.
+std::vector<AslEvent> ArrivalOrder(const AslDataset& dataset, const std::vector<int>& cameras,
+                                   int64_t t_begin_ns = INT64_MIN, int64_t t_end_ns = INT64_MAX);
 
 // Writes an ASL dataset incrementally: images go straight to disk, the CSV files are written
 // by Finish() (atomically: temporary file + rename).
