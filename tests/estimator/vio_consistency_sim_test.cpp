@@ -35,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "diag_env.h"
 #include "test_skip.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/geometry.h"
@@ -107,11 +108,7 @@ std::vector<FrameError> RunAgainstTruth(const std::filesystem::path& dir, bool s
   const std::vector<TruthSample> truth =
       ReadTruth(dir / "mav0/state_groundtruth_estimate0/data.csv");
   REQUIRE(truth.size() > 10);
-  options.stereo.enabled = stereo;
-  VioPipelineOptions po;
-  po.vio_camera = 0;
-  po.filter = options;
-  po.cameras = stereo ? std::vector<int>{0, options.stereo.camera} : std::vector<int>{0};
+  const VioPipelineOptions po = diag::PipelineOptions(options, stereo);
   VioPipeline pipeline(rig, po);
 
   const std::vector<AslEvent> events = ArrivalOrder(dataset, po.cameras);
@@ -252,38 +249,24 @@ void PrintWindows(const std::string& title, const std::vector<FrameError>& error
 }
 
 void DiagnoseSet(const std::string& name) {
-  const char* home = std::getenv("HOME");
-  const std::filesystem::path cache = std::filesystem::path(home ? home : "/") / ".cache/vilma";
-  const char* sets_dir = std::getenv("VILMA_DIAG_DATASETS");  // default ~/.cache/vilma/datasets
-  const std::filesystem::path dir =
-      (sets_dir && *sets_dir ? std::filesystem::path(sets_dir) : cache / "datasets") / name;
+  const std::filesystem::path dir = diag::DatasetDir(name);
   if (!std::filesystem::exists(dir / "mav0/cam1")) {
     VILMA_SKIP(dir << " (a stereo simulated set) is not there");
   }
-  const char* config = std::getenv("VILMA_DIAG_CONFIG");
-  const FilterOptions options =
-      config && *config ? LoadFilterOptions(config) : FilterOptionsProfile("default");
-  const char* out_env = std::getenv("VILMA_DIAG_OUT");
-  const std::filesystem::path out = out_env && *out_env ? out_env : cache / "diag";
-  std::filesystem::create_directories(out);
-  const char* modes = std::getenv("VILMA_DIAG_MODES");  // "mono", "stereo" or both (default)
-  const std::string mode_list = modes && *modes ? modes : "mono,stereo";
+  const FilterOptions options = diag::Options();
+  const std::filesystem::path out = diag::OutDir();
+  const std::string config = diag::EnvOr("VILMA_DIAG_CONFIG", "default");
   for (bool stereo : {false, true}) {
-    if (mode_list.find(stereo ? "stereo" : "mono") == std::string::npos) continue;
+    if (!diag::WantsMode(stereo, "mono,stereo")) continue;
     const std::vector<FrameError> errors = RunAgainstTruth(dir, stereo, options);
     const std::string mode = stereo ? "stereo" : "mono";
     WriteCsv(out / (name + "-" + mode + ".csv"), errors);
-    PrintWindows(name + " " + mode + " (" + (config && *config ? config : "default") +
-                     "), per 10 s window",
-                 errors);
+    PrintWindows(name + " " + mode + " (" + config + "), per 10 s window", errors);
   }
 }
 
 TEST_CASE("stereo diagnosis: per-frame errors and NEES against the truth", "[.diagnostic]") {
-  const char* sets = std::getenv("VILMA_DIAG_SETS");
-  std::string list = sets && *sets ? sets : "street,room-easy";
-  std::stringstream s(list);
-  for (std::string name; std::getline(s, name, ',');) DiagnoseSet(name);
+  for (const std::string& name : diag::SetNames("street,room-easy")) DiagnoseSet(name);
 }
 
 }  // namespace

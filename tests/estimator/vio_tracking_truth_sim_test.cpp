@@ -45,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "diag_env.h"
 #include "test_skip.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/geometry.h"
@@ -102,11 +103,7 @@ std::vector<Observation> TrackAgainstTruth(const std::filesystem::path& dir, boo
   const AslDataset dataset = AslDataset::Open(dir.string());
   const SensorRig rig = LoadSensorRig((dir / "rig.yaml").string());
   const Camera& cam = rig.cameras[0].camera;
-  options.stereo.enabled = stereo;
-  VioPipelineOptions po;
-  po.vio_camera = 0;
-  po.filter = options;
-  po.cameras = stereo ? std::vector<int>{0, options.stereo.camera} : std::vector<int>{0};
+  const VioPipelineOptions po = diag::PipelineOptions(options, stereo);
   VioPipeline pipeline(rig, po);
 
   const std::vector<AslEvent> events = ArrivalOrder(dataset, po.cameras);
@@ -210,25 +207,13 @@ void WriteCsv(const std::filesystem::path& path, const std::vector<Observation>&
 }
 
 TEST_CASE("stereo diagnosis: feature tracks against the simulator's geometry", "[.diagnostic]") {
-  const char* home = std::getenv("HOME");
-  const std::filesystem::path cache = std::filesystem::path(home ? home : "/") / ".cache/vilma";
-  const char* sets = std::getenv("VILMA_DIAG_SETS");
-  const char* config = std::getenv("VILMA_DIAG_CONFIG");
-  const FilterOptions options =
-      config && *config ? LoadFilterOptions(config) : FilterOptionsProfile("default");
-  const char* out_env = std::getenv("VILMA_DIAG_OUT");
-  const std::filesystem::path out = out_env && *out_env ? out_env : cache / "diag";
-  std::filesystem::create_directories(out);
-  const char* modes = std::getenv("VILMA_DIAG_MODES");
-  const std::string mode_list = modes && *modes ? modes : "mono";
-  std::stringstream s(sets && *sets ? sets : "room-easy");
-  for (std::string name; std::getline(s, name, ',');) {
-    const char* sets_dir = std::getenv("VILMA_DIAG_DATASETS");  // default ~/.cache/vilma/datasets
-    const std::filesystem::path dir =
-        (sets_dir && *sets_dir ? std::filesystem::path(sets_dir) : cache / "datasets") / name;
+  const FilterOptions options = diag::Options();
+  const std::filesystem::path out = diag::OutDir();
+  for (const std::string& name : diag::SetNames("room-easy")) {
+    const std::filesystem::path dir = diag::DatasetDir(name);
     if (!std::filesystem::exists(dir / "sim.yaml")) VILMA_SKIP(dir << " is not there");
     for (bool stereo : {false, true}) {
-      if (mode_list.find(stereo ? "stereo" : "mono") == std::string::npos) continue;
+      if (!diag::WantsMode(stereo, "mono")) continue;
       const std::vector<Observation> obs = TrackAgainstTruth(dir, stereo, options);
       const std::string mode = stereo ? "stereo" : "mono";
       WriteCsv(out / (name + "-" + mode + "-tracks.csv"), obs);
@@ -293,20 +278,12 @@ void WriteImuVariant(const std::filesystem::path& dir, const std::string& varian
 }
 
 TEST_CASE("stereo diagnosis: IMU variants of a simulated set", "[.diagnostic]") {
-  const char* home = std::getenv("HOME");
-  const std::filesystem::path cache = std::filesystem::path(home ? home : "/") / ".cache/vilma";
-  const char* sets = std::getenv("VILMA_DIAG_SETS");
-  const char* variants = std::getenv("VILMA_DIAG_IMU_VARIANTS");
-  const char* out_env = std::getenv("VILMA_DIAG_OUT");
-  const std::filesystem::path out = out_env && *out_env ? out_env : cache / "diag";
-  std::filesystem::create_directories(out);
-  std::stringstream s(sets && *sets ? sets : "room-easy");
-  for (std::string name; std::getline(s, name, ',');) {
-    const char* sets_dir = std::getenv("VILMA_DIAG_DATASETS");  // default ~/.cache/vilma/datasets
-    const std::filesystem::path dir =
-        (sets_dir && *sets_dir ? std::filesystem::path(sets_dir) : cache / "datasets") / name;
+  const std::string variants = diag::EnvOr("VILMA_DIAG_IMU_VARIANTS", "0");
+  const std::filesystem::path out = diag::OutDir();
+  for (const std::string& name : diag::SetNames("room-easy")) {
+    const std::filesystem::path dir = diag::DatasetDir(name);
     if (!std::filesystem::exists(dir / "sim.yaml")) VILMA_SKIP(dir << " is not there");
-    std::stringstream v(variants && *variants ? variants : "0");
+    std::stringstream v(variants);
     for (std::string variant; std::getline(v, variant, ',');) {
       WriteImuVariant(dir, variant, out / (name + "-imu" + variant));
     }
@@ -314,14 +291,8 @@ TEST_CASE("stereo diagnosis: IMU variants of a simulated set", "[.diagnostic]") 
 }
 
 TEST_CASE("stereo diagnosis: feature dynamics against the simulator's geometry", "[.diagnostic]") {
-  const char* home = std::getenv("HOME");
-  const std::filesystem::path cache = std::filesystem::path(home ? home : "/") / ".cache/vilma";
-  const char* sets = std::getenv("VILMA_DIAG_SETS");
-  std::stringstream list(sets && *sets ? sets : "room-easy");
-  for (std::string name; std::getline(list, name, ',');) {
-    const char* sets_dir = std::getenv("VILMA_DIAG_DATASETS");
-    const std::filesystem::path dir =
-        (sets_dir && *sets_dir ? std::filesystem::path(sets_dir) : cache / "datasets") / name;
+  for (const std::string& name : diag::SetNames("room-easy")) {
+    const std::filesystem::path dir = diag::DatasetDir(name);
     if (!std::filesystem::exists(dir / "sim.yaml")) VILMA_SKIP(dir << " is not there");
     sim::SimOptions so = ReadSimYaml(dir / "sim.yaml");
     so.imu = sim::ImuSimOptions::NoiseFree();
