@@ -9,6 +9,7 @@
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "vilma/mapstore/checksum.h"
 
 using namespace vilma::mapstore;
 
@@ -151,4 +152,48 @@ TEST_CASE("journal write errors leave no partial record", "[mapstore_stream]") {
   const auto records = MissionJournal::Read(path, &recovery);
   REQUIRE(records.size() == 3);
   CHECK(records[2].payload == "one");
+}
+
+TEST_CASE("journal record bytes: length, CRC over seq + type + payload, seq, type, payload",
+          "[mapstore_stream]") {
+  const std::string path = FreshPath("record_bytes");
+  // A large payload (several MB: more than one write may be needed) and an empty one.
+  std::string large(static_cast<std::size_t>(3) << 20, '\0');
+  for (std::size_t i = 0; i < large.size(); ++i) large[i] = static_cast<char>((i * 131) % 251);
+  uint64_t header_end = 0;
+  {
+    auto journal = MissionJournal::Create(path, "mission_id=y\n");
+    header_end = journal->size();
+    REQUIRE(journal->Append(41, JournalRecordType::kData, large) == 0);
+    REQUIRE(journal->Append(42, JournalRecordType::kEnd, std::string()) == 0);
+    CHECK(journal->size() == header_end + 17 + large.size() + 17);
+    REQUIRE(journal->Sync() == 0);
+  }
+  const std::string bytes = ReadBytes(path);
+  REQUIRE(bytes.size() == header_end + 17 + large.size() + 17);
+  auto u32 = [&](std::size_t at) {
+    uint32_t v = 0;
+    for (int k = 3; k >= 0; --k) v = (v << 8) | static_cast<uint8_t>(bytes[at + k]);
+    return v;
+  };
+  auto u64 = [&](std::size_t at) {
+    uint64_t v = 0;
+    for (int k = 7; k >= 0; --k) v = (v << 8) | static_cast<uint8_t>(bytes[at + k]);
+    return v;
+  };
+  const std::size_t r = header_end;
+  CHECK(u32(r) == large.size());
+  CHECK(u64(r + 8) == 41);
+  CHECK(static_cast<uint8_t>(bytes[r + 16]) == static_cast<uint8_t>(JournalRecordType::kData));
+  CHECK(bytes.compare(r + 17, large.size(), large) == 0);
+  // The CRC of the contiguous bytes seq .. end of payload, as the reader checks it.
+  CHECK(u32(r + 4) == Crc32(bytes.data() + r + 8, 9 + large.size()));
+  const std::size_t e = r + 17 + large.size();
+  CHECK(u32(e) == 0);
+  CHECK(u64(e + 8) == 42);
+  CHECK(u32(e + 4) == Crc32(bytes.data() + e + 8, 9));
+  const auto records = MissionJournal::Read(path, nullptr);
+  REQUIRE(records.size() == 3);
+  CHECK(records[1].payload == large);
+  CHECK(records[2].type == JournalRecordType::kEnd);
 }

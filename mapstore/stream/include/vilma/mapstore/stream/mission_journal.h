@@ -83,7 +83,6 @@ class MissionJournal {
   int fd_ = -1;
   uint64_t size_ = 0;
   JournalFaultHook fault_hook_;
-  std::string buffer_;  // reused record buffer (no allocation per append once grown)
 };
 
 }  // namespace mapstore
