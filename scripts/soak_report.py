@@ -29,8 +29,7 @@ METRICS_MAX = ["latency_total_p99_ms", "latency_filter_p99_ms", "latency_receive
 STORE_LAST = ["chunks_journaled", "bytes_journaled", "chunks_undecodable"]
 # The heap over the malloc arenas (mallinfo2): mapstored's status since 2026-11-27 (session 32),
 # the daemon's since session 34.
-STORE_METRICS_LAST = ["heap_in_use_mb", "heap_free_mb"]
-DAEMON_METRICS_LAST = ["heap_in_use_mb", "heap_free_mb"]
+HEAP_METRICS_LAST = ["heap_in_use_mb", "heap_free_mb"]
 
 
 def read_proc(path):
@@ -94,12 +93,12 @@ def merge(rows, reports):
         for k in DAEMON_LAST:
             m[k] = d["counters"].get(k) if d else None
         m["daemon_state"] = d["state"] if d else None
-        for k in DAEMON_METRICS_LAST:
+        for k in HEAP_METRICS_LAST:
             m["daemon_" + k] = d["metrics"].get(k) if d and "metrics" in d else None
         s = last["mapstored"]
         for k in STORE_LAST:
             m["mapstored_" + k] = s["counters"].get(k) if s else None
-        for k in STORE_METRICS_LAST:
+        for k in HEAP_METRICS_LAST:
             m["mapstored_" + k] = s["metrics"].get(k) if s and "metrics" in s else None
         m["p99_values"] = [r["metrics"]["latency_total_p99_ms"] for r in window
                            if r["metrics"].get("latency_total_p99_ms") is not None

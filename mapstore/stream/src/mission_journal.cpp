@@ -209,9 +209,9 @@ int MissionJournal::Append(int64_t seq, JournalRecordType type, const std::strin
     if (err != 0) return err;
   }
   // Header and payload go out in one writev: the payload is not copied, and no buffer keeps
-  // the size of the largest record for the journal's life (the reused buffer before this most
-  // likely held a soak's mapstored at +1.4 MB from its largest chunk on, docs/reliability.md
-  // "Soak").
+  // the size of the largest record for the journal's life (with the reused buffer before this,
+  // a soak hour's mapstored had 2.11 -> 3.55 MB of heap in use; with writev 0.68 MB flat,
+  // docs/reliability.md "Soak").
   char header[kRecordHeaderSize];
   PutU32(static_cast<uint32_t>(payload.size()), header);
   PutU64(static_cast<uint64_t>(seq), header + 8);

@@ -13,6 +13,8 @@ struct HeapUsage {
   double mmapped_mb = 0.0;  // live blocks that have their own mapping
 };
 
+// mallinfo2 takes each arena's lock while it counts: a status report's cost (once a second),
+// not something for a realtime loop.
 HeapUsage ReadHeapUsage();
 
 // The default mmap threshold of FixMallocMmapThreshold [bytes].
