@@ -1,6 +1,7 @@
 #include "vilma/mapping/track_refinement.h"
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <utility>
@@ -29,6 +30,27 @@ inline bool Inside(const cv::Mat& m, double u, double v) {
   return u >= 1.0 && v >= 1.0 && u < m.cols - 2.0 && v < m.rows - 2.0;
 }
 
+// The checks after an alignment (either solver): not converged stays, then too far, large
+// error, bad warp, gain out of (0.5, 2).
+void CheckConverged(const Eigen::Vector2d& c0, bool affine, const TrackRefinementOptions& options,
+                    PatchAlignment* out) {
+  if (out->status != PatchAlignment::Status::kOk) return;  // not converged
+  if ((out->center - c0).norm() > options.max_shift_px) {
+    out->status = PatchAlignment::Status::kTooFar;
+  } else if (out->rms_error > options.max_error_grey) {
+    out->status = PatchAlignment::Status::kLargeError;
+  } else if (affine) {
+    const Eigen::Vector2d s = Eigen::JacobiSVD<Eigen::Matrix2d>(out->warp).singularValues();
+    if (!(s(0) <= options.max_warp_scale && s(1) >= 1.0 / options.max_warp_scale) ||
+        out->warp.determinant() <= 0.0) {
+      out->status = PatchAlignment::Status::kBadWarp;
+    }
+  }
+  if (out->ok() && !(out->gain > 0.5 && out->gain < 2.0)) {
+    out->status = PatchAlignment::Status::kLargeError;
+  }
+}
+
 }  // namespace
 
 std::string TrackRefinementOptions::Validate() const {
@@ -50,12 +72,13 @@ std::string TrackRefinementOptions::Validate() const {
   return {};
 }
 
-GradientImage GradientImage::FromGrey(const cv::Mat& grey) {
+GradientImage GradientImage::FromGrey(const cv::Mat& grey, bool with_gradients) {
   if (grey.empty() || grey.type() != CV_8UC1) {
     throw std::invalid_argument("GradientImage: expected a non-empty 8-bit grey image");
   }
   GradientImage g;
   grey.convertTo(g.intensity, CV_32F);
+  if (!with_gradients) return g;
   // Central differences: (I(u+1) - I(u-1)) / 2 (Sobel with ksize 1 is [-1 0 1] unscaled).
   cv::Sobel(g.intensity, g.grad_x, CV_32F, 1, 0, 1, 0.5, 0.0, cv::BORDER_REPLICATE);
   cv::Sobel(g.intensity, g.grad_y, CV_32F, 0, 1, 1, 0.5, 0.0, cv::BORDER_REPLICATE);
@@ -63,18 +86,111 @@ GradientImage GradientImage::FromGrey(const cv::Mat& grey) {
 }
 
 bool PatchTemplate::Extract(const GradientImage& image, const Eigen::Vector2d& uv, int h) {
+  if (!Sample(image, uv, h)) return false;
+  Prepare();
+  return true;
+}
+
+bool PatchTemplate::Sample(const GradientImage& image, const Eigen::Vector2d& uv, int h) {
   half_size = h;
-  samples.clear();
-  samples.reserve(static_cast<std::size_t>((2 * h + 1) * (2 * h + 1)));
-  for (int y = -h; y <= h; ++y) {
-    for (int x = -h; x <= h; ++x) {
-      const double u = uv.x() + x;
-      const double v = uv.y() + y;
-      if (!Inside(image.intensity, u, v)) return false;
-      samples.push_back(Bilinear(image.intensity, u, v));
+  prepared = affine_ok = translation_ok = false;
+  const cv::Mat& m = image.intensity;
+  // Inside() for every sample is Inside() for the extreme ones (the grid is axis-aligned).
+  if (!Inside(m, uv.x() - h, uv.y() - h) || !Inside(m, uv.x() + h, uv.y() + h)) return false;
+  // A (2 h + 3)^2 grid of bilinear samples at uv + (x, y), x, y in [-h - 1, h + 1], all with
+  // the same weights: the samples T are its interior, the central-difference gradients the
+  // differences of its neighbours. Inside() keeps u - 1 and u + 1 (v too) inside the image,
+  // where the bilinear sample of the central-difference image equals the central difference of
+  // bilinear samples (both are linear filters), i.e. what sampling GradientImage::grad_x gives.
+  const int w = 2 * h + 3;
+  const int x0 = static_cast<int>(std::floor(uv.x())) - h - 1;
+  const int y0 = static_cast<int>(std::floor(uv.y())) - h - 1;
+  const float a = static_cast<float>(uv.x() - std::floor(uv.x()));
+  const float b = static_cast<float>(uv.y() - std::floor(uv.y()));
+  std::vector<float> grid(static_cast<std::size_t>(w * w));
+  for (int y = 0; y < w; ++y) {
+    const float* r0 = m.ptr<float>(y0 + y) + x0;
+    const float* r1 = m.ptr<float>(y0 + y + 1) + x0;
+    for (int x = 0; x < w; ++x) {
+      grid[static_cast<std::size_t>(y * w + x)] =
+          (1.0f - b) * ((1.0f - a) * r0[x] + a * r0[x + 1]) +
+          b * ((1.0f - a) * r1[x] + a * r1[x + 1]);
+    }
+  }
+  const int side = 2 * h + 1;
+  samples.resize(static_cast<std::size_t>(side * side));
+  gradients.resize(2 * samples.size());
+  std::size_t k = 0;
+  for (int y = 1; y <= side; ++y) {
+    for (int x = 1; x <= side; ++x, ++k) {
+      const float* g = &grid[static_cast<std::size_t>(y * w + x)];
+      samples[k] = g[0];
+      gradients[2 * k] = 0.5f * (g[1] - g[-1]);
+      gradients[2 * k + 1] = 0.5f * (g[w] - g[-w]);
     }
   }
   return true;
+}
+
+void PatchTemplate::Prepare() {
+  const int h = half_size;
+  const std::size_t n = samples.size();
+  prepared = true;
+  affine_ok = translation_ok = false;
+  double sum = 0.0;
+  for (const float t : samples) sum += t;
+  mean = sum / static_cast<double>(n);
+  centered_sq = 0.0;
+  for (const float t : samples) centered_sq += (t - mean) * (t - mean);
+  // SD columns before the projection: grad T dW/dp at p = 0 (W(o; p) = c + (1 + dA) o), and
+  // their means and inner products with T - mean.
+  steepest_descent.resize(6 * n);
+  double col_sum[6] = {}, col_dot[6] = {};
+  std::size_t k = 0;
+  for (int y = -h; y <= h; ++y) {
+    for (int x = -h; x <= h; ++x, ++k) {
+      const double gx = gradients[2 * k], gy = gradients[2 * k + 1];
+      const double col[6] = {gx, gy, gx * x, gx * y, gy * x, gy * y};
+      const double t = samples[k] - mean;
+      for (int j = 0; j < 6; ++j) {
+        steepest_descent[6 * k + static_cast<std::size_t>(j)] = static_cast<float>(col[j]);
+        col_sum[j] += col[j];
+        col_dot[j] += col[j] * t;
+      }
+    }
+  }
+  if (!(centered_sq > 0.0)) return;  // a flat patch: nothing to align
+  // Project out span{1, T - mean}: v - mean(v) - <v, T~> / |T~|^2 T~; H = SD^T SD from the
+  // stored (float) values, so that H^-1 SD^T is consistent.
+  double col_mean[6], col_f[6];
+  for (int j = 0; j < 6; ++j) {
+    col_mean[j] = col_sum[j] / static_cast<double>(n);
+    col_f[j] = col_dot[j] / centered_sq;
+  }
+  Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();
+  for (std::size_t i = 0; i < n; ++i) {
+    const double t = samples[i] - mean;
+    float* row = &steepest_descent[6 * i];
+    double r[6];
+    for (int j = 0; j < 6; ++j) {
+      row[j] = static_cast<float>(row[j] - col_mean[j] - col_f[j] * t);
+      r[j] = row[j];
+    }
+    for (int j = 0; j < 6; ++j) {
+      for (int l = j; l < 6; ++l) H(j, l) += r[j] * r[l];
+    }
+  }
+  H.triangularView<Eigen::StrictlyLower>() = H.transpose();
+  const Eigen::LDLT<Eigen::Matrix<double, 6, 6>> ldlt6(H);
+  if (ldlt6.info() == Eigen::Success && ldlt6.isPositive() && ldlt6.vectorD().minCoeff() > 0.0) {
+    hessian_inv_affine = ldlt6.solve(Eigen::Matrix<double, 6, 6>::Identity());
+    affine_ok = hessian_inv_affine.allFinite();
+  }
+  const Eigen::Matrix2d H2 = H.topLeftCorner<2, 2>();
+  if (H2(0, 0) > 0.0 && H2.determinant() > 0.0) {
+    hessian_inv_translation = H2.inverse();
+    translation_ok = hessian_inv_translation.allFinite();
+  }
 }
 
 const char* PatchAlignmentStatusName(PatchAlignment::Status status) {
@@ -91,9 +207,14 @@ const char* PatchAlignmentStatusName(PatchAlignment::Status status) {
   return "?";
 }
 
-PatchAlignment AlignPatchTemplate(const PatchTemplate& patch, const GradientImage& image,
-                                  const Eigen::Vector2d& c0, const Eigen::Matrix2d& A0,
-                                  const TrackRefinementOptions& options) {
+PatchAlignment AlignPatchTemplateForwardAdditive(const PatchTemplate& patch,
+                                                 const GradientImage& image,
+                                                 const Eigen::Vector2d& c0,
+                                                 const Eigen::Matrix2d& A0,
+                                                 const TrackRefinementOptions& options) {
+  if (image.grad_x.empty() || image.grad_y.empty()) {
+    throw std::invalid_argument("AlignPatchTemplateForwardAdditive: the image has no gradients");
+  }
   // Parameters x = [c_u, c_v, A00, A01, A10, A11, g, b] (affine) or [c_u, c_v, g, b].
   const bool affine = options.method == "affine";
   const int n = affine ? 8 : 4;
@@ -176,19 +297,123 @@ PatchAlignment AlignPatchTemplate(const PatchTemplate& patch, const GradientImag
     }
   }
   out.rms_error = count > 0 ? std::sqrt(sum_r2 / count) : 0.0;
-  if (out.status != PatchAlignment::Status::kOk) return out;  // not converged
-  if ((out.center - c0).norm() > options.max_shift_px) {
-    out.status = PatchAlignment::Status::kTooFar;
-  } else if (out.rms_error > options.max_error_grey) {
-    out.status = PatchAlignment::Status::kLargeError;
-  } else if (affine) {
-    const Eigen::Vector2d s = Eigen::JacobiSVD<Eigen::Matrix2d>(out.warp).singularValues();
-    if (!(s(0) <= options.max_warp_scale && s(1) >= 1.0 / options.max_warp_scale) ||
-        out.warp.determinant() <= 0.0) {
-      out.status = PatchAlignment::Status::kBadWarp;
+  CheckConverged(c0, affine, options, &out);
+  return out;
+}
+
+PatchAlignment AlignPatchTemplate(const PatchTemplate& patch, const GradientImage& image,
+                                  const Eigen::Vector2d& c0, const Eigen::Matrix2d& A0,
+                                  const TrackRefinementOptions& options) {
+  const bool affine = options.method == "affine";
+  const int h = patch.half_size;
+  PatchAlignment out;
+  out.center = c0;
+  out.warp = affine ? A0 : Eigen::Matrix2d::Identity();
+  if (!(affine ? patch.affine_ok : patch.translation_ok)) {
+    out.status = PatchAlignment::Status::kSingular;
+    return out;
+  }
+  if (!patch.prepared) {
+    throw std::logic_error("AlignPatchTemplate: the template is not prepared (PatchTemplate::Prepare)");
+  }
+  const cv::Mat& m = image.intensity;
+  const float* sd = patch.steepest_descent.data();
+  const float* T = patch.samples.data();
+  const float T_mean = static_cast<float>(patch.mean);
+  const double n = static_cast<double>(patch.samples.size());
+  double sum_r2 = 0.0;
+  for (int it = 0; it < options.max_iterations; ++it) {
+    out.iterations = it + 1;
+    const double cu = out.center.x(), cv = out.center.y();
+    const double a00 = out.warp(0, 0), a01 = out.warp(0, 1);
+    const double a10 = out.warp(1, 0), a11 = out.warp(1, 1);
+    // The warped patch is a parallelogram: inside when its four corners are.
+    bool inside = true;
+    for (const int sy : {-h, h}) {
+      for (const int sx : {-h, h}) {
+        inside = inside && Inside(m, cu + a00 * sx + a01 * sy, cv + a10 * sx + a11 * sy);
+      }
+    }
+    if (!inside) {
+      out.status = PatchAlignment::Status::kLeftImage;
+      return out;
+    }
+    // One pass: I at the warped samples, the sums for the gain and offset regression on T and
+    // b = SD^T I (SD^T T = SD^T 1 = 0: the error image's template part drops out). Sums over a
+    // row in float, over rows in double.
+    double s_i = 0.0, s_ii = 0.0, s_it = 0.0;
+    double b[6] = {};
+    std::size_t k = 0;
+    for (int y = -h; y <= h; ++y) {
+      const double row_u = cu + a01 * y - a00 * h, row_v = cv + a11 * y - a10 * h;
+      float r_i = 0.0f, r_ii = 0.0f, r_it = 0.0f;
+      float r_b[6] = {};
+      for (int j = 0; j <= 2 * h; ++j, ++k) {
+        const double u = row_u + a00 * j;
+        const double v = row_v + a10 * j;
+        const int xi = static_cast<int>(u);  // u, v >= 1: truncation is floor
+        const int yi = static_cast<int>(v);
+        const float fa = static_cast<float>(u - xi);
+        const float fb = static_cast<float>(v - yi);
+        const float* r0 = m.ptr<float>(yi) + xi;
+        const float* r1 = m.ptr<float>(yi + 1) + xi;
+        const float I = (1.0f - fb) * ((1.0f - fa) * r0[0] + fa * r0[1]) +
+                        fb * ((1.0f - fa) * r1[0] + fa * r1[1]);
+        const float* s = sd + 6 * k;
+        r_i += I;
+        r_ii += I * I;
+        r_it += I * (T[k] - T_mean);
+        r_b[0] += s[0] * I;
+        r_b[1] += s[1] * I;
+        if (affine) {
+          r_b[2] += s[2] * I;
+          r_b[3] += s[3] * I;
+          r_b[4] += s[4] * I;
+          r_b[5] += s[5] * I;
+        }
+      }
+      s_i += r_i;
+      s_ii += r_ii;
+      s_it += r_it;
+      for (int j = 0; j < 6; ++j) b[j] += r_b[j];
+    }
+    // Gain and offset for this warp (least squares of I on T), and the residual they leave.
+    out.gain = s_it / patch.centered_sq;
+    out.offset = s_i / n - out.gain * patch.mean;
+    sum_r2 = std::max(0.0, (s_ii - s_i * s_i / n) - s_it * s_it / patch.centered_sq);
+    // The template's gradient is seen scaled by the gain: divide it out (clamped to where the
+    // result is accepted at all).
+    const double g = std::min(2.0, std::max(0.5, out.gain));
+    Eigen::Vector2d dc;
+    Eigen::Matrix2d dA = Eigen::Matrix2d::Zero();
+    if (affine) {
+      const Eigen::Matrix<double, 6, 1> dp =
+          patch.hessian_inv_affine * Eigen::Map<const Eigen::Matrix<double, 6, 1>>(b) / g;
+      dc = dp.head<2>();
+      dA << dp(2), dp(3), dp(4), dp(5);
+    } else {
+      dc = patch.hessian_inv_translation * Eigen::Vector2d(b[0], b[1]) / g;
+    }
+    // W(p) <- W(p) o W(dp)^-1, W(o; dp) = dc + (1 + dA) o: A' = A (1 + dA)^-1, c' = c - A' dc.
+    const Eigen::Matrix2d M = Eigen::Matrix2d::Identity() + dA;
+    const double det = M.determinant();
+    if (!(std::abs(det) > 1e-9) || !dc.allFinite() || !dA.allFinite()) {
+      out.status = PatchAlignment::Status::kSingular;
+      return out;
+    }
+    const Eigen::Matrix2d A_new = out.warp * M.inverse();
+    const Eigen::Vector2d c_new = out.center - A_new * dc;
+    // The farthest patch corner's move, as in the forward additive solver.
+    const double step = (c_new - out.center).norm() + (A_new - out.warp).norm() * h;
+    out.center = c_new;
+    if (affine) out.warp = A_new;
+    if (step < options.convergence_px) {
+      out.status = PatchAlignment::Status::kOk;
+      break;
     }
   }
-  if (out.ok() && !(out.gain > 0.5 && out.gain < 2.0)) out.status = PatchAlignment::Status::kLargeError;
+  out.rms_error = std::sqrt(sum_r2 / n);
+  CheckConverged(c0, affine, options, &out);
   return out;
 }
 
@@ -199,8 +424,10 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
                           std::vector<Eigen::Vector2d>* uv, std::vector<int64_t>* track_ids) {
   track_ids->assign(tracker_ids.begin(), tracker_ids.end());
   if (!options_.enabled()) return;
-  const GradientImage gradients = GradientImage::FromGrey(image);
-  std::unordered_map<int64_t, Track> next;
+  const bool forward_additive = solver_ == Solver::kForwardAdditive;
+  const GradientImage gradients = GradientImage::FromGrey(image, forward_additive);
+  std::unordered_map<int64_t, Track>& next = next_;
+  next.clear();
   next.reserve(tracker_ids.size());
   const int h = options_.patch_half_size_px;
   for (std::size_t k = 0; k < tracker_ids.size(); ++k) {
@@ -213,8 +440,13 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
     if (it != tracks_.end()) {
       track = std::move(it->second);
       if (track.has_patch) {
+        // The inverse compositional data only for tracks that continue (most never do).
+        if (!forward_additive && !track.patch.prepared) track.patch.Prepare();
         const Eigen::Vector2d c0 = track.aligned_uv + (detected - track.detected_uv);
-        PatchAlignment a = AlignPatchTemplate(track.patch, gradients, c0, track.warp, options_);
+        PatchAlignment a =
+            forward_additive
+                ? AlignPatchTemplateForwardAdditive(track.patch, gradients, c0, track.warp, options_)
+                : AlignPatchTemplate(track.patch, gradients, c0, track.warp, options_);
         if (a.ok() && options_.max_offset_px > 0.0 &&
             (a.center - detected).norm() > options_.max_offset_px) {
           a.status = PatchAlignment::Status::kOffset;
@@ -240,7 +472,7 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
       track.id = tid;
     }
     if (start_new) {
-      track.has_patch = track.patch.Extract(gradients, detected, h);
+      track.has_patch = track.patch.Sample(gradients, detected, h);
       track.detected_uv = detected;
       track.aligned_uv = detected;
       track.warp.setIdentity();
@@ -248,7 +480,7 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
     }
     next.emplace(tid, std::move(track));
   }
-  tracks_ = std::move(next);
+  std::swap(tracks_, next_);
 }
 
 }  // namespace vilma::mapping

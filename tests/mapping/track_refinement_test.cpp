@@ -283,3 +283,135 @@ TEST_CASE("TrackRefiner: max_offset_px splits a track whose aligned point leaves
     }
   }
 }
+
+TEST_CASE("AlignPatchTemplate (inverse compositional) matches the forward additive solver",
+          "[mapping][refine]") {
+  // Both solve the same problem (min over c, A, g, b of the photometric error): on exact
+  // synthetic warps with a brightness change they must end at the same point, up to their
+  // convergence tolerance (a step below convergence_px = 0.005 px at the patch corners). Only
+  // where the warp model fits: the inverse compositional fixed point is the minimum when the
+  // residual is small; "translation" on a scaled patch leaves a large one, and there the two
+  // stop up to 0.3 px apart (measured; both within max_error_grey).
+  const BlobTexture tex(9);
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const GradientImage ref = GradientImage::FromGrey(Render(tex, 260, 220, I2, {0, 0}));
+  struct Case {
+    Eigen::Matrix2d M;
+    Eigen::Vector2d t;
+    double gain, offset;
+  };
+  std::vector<Case> cases;
+  cases.push_back({I2, {0.37, -0.61}, 1.15, -8.0});
+  Eigen::Matrix2d M;
+  M << 1.2, 0.08, -0.04, 1.1;
+  cases.push_back({M, {-20.3, -11.8}, 0.9, 12.0});
+  M << 0.85, -0.1, 0.06, 0.9;
+  cases.push_back({M, {18.6, 15.1}, 1.0, 0.0});
+  double worst_center = 0.0, worst_warp = 0.0, worst_rms = 0.0, worst_truth = 0.0;
+  int compared = 0;
+  for (const std::string method : {"translation", "affine"}) {
+    const TrackRefinementOptions o = Options(method);
+    for (const Case& c : cases) {
+      if (method == "translation" && c.M != I2) continue;  // the model does not fit
+      const GradientImage cur =
+          GradientImage::FromGrey(Render(tex, 260, 220, c.M, c.t, c.gain, c.offset));
+      for (int y = 70; y <= 150; y += 20) {
+        for (int x = 70; x <= 190; x += 30) {
+          PatchTemplate patch;
+          REQUIRE(patch.Extract(ref, Eigen::Vector2d(x, y), o.patch_half_size_px));
+          const Eigen::Vector2d truth = c.M * Eigen::Vector2d(x, y) + c.t;
+          const Eigen::Vector2d c0 = truth + Eigen::Vector2d(0.6, -0.45);
+          const Eigen::Matrix2d A0 = I2 + 0.7 * (c.M - I2);
+          const PatchAlignment fa = AlignPatchTemplateForwardAdditive(patch, cur, c0, A0, o);
+          const PatchAlignment ic = AlignPatchTemplate(patch, cur, c0, A0, o);
+          INFO(method << " at " << x << "," << y << ": forward additive "
+                      << PatchAlignmentStatusName(fa.status) << ", inverse compositional "
+                      << PatchAlignmentStatusName(ic.status));
+          CHECK(fa.status == ic.status);
+          if (!fa.ok() || !ic.ok()) continue;
+          ++compared;
+          worst_center = std::max(worst_center, (fa.center - ic.center).norm());
+          worst_warp = std::max(worst_warp, (fa.warp - ic.warp).norm());
+          // The forward additive solver reports the residual of its last iteration's start
+          // (with that iteration's gain and offset): one step stale, so never below the inverse
+          // compositional one, which is the minimum over gain and offset at its solution
+          // (translation, 2 iterations: 1.01 against 0.51 grey).
+          worst_rms = std::max(worst_rms, ic.rms_error - fa.rms_error);
+          if (method == "affine") worst_truth = std::max(worst_truth, (ic.center - truth).norm());
+          CHECK(ic.gain == Approx(fa.gain).margin(0.01));
+          CHECK(ic.offset == Approx(fa.offset).margin(1.5));
+        }
+      }
+    }
+  }
+  INFO(compared << " alignments compared; worst centre difference " << worst_center
+                << " px, warp " << worst_warp << ", RMS error above " << worst_rms
+                << " grey; inverse compositional (affine) against the truth " << worst_truth
+                << " px");
+  CHECK(compared >= 60);
+  CHECK(worst_center < 0.01);
+  CHECK(worst_warp < 0.005);
+  CHECK(worst_rms < 0.02);
+  CHECK(worst_truth < 0.05);
+}
+
+TEST_CASE("PatchTemplate::Extract's steepest-descent images from the gradient images' samples",
+          "[mapping][refine]") {
+  // The inverse compositional solver differentiates the template by central differences of
+  // bilinear samples of the intensity; that must equal sampling GradientImage::grad_x/y (what
+  // the forward additive solver uses), so both solvers see one template. Rebuilt here from the
+  // gradient images: SD = P [g_x, g_y, g_x o_x, g_x o_y, g_y o_x, g_y o_y], P projecting out
+  // span{1, T - mean T}.
+  const cv::Mat grey = Render(BlobTexture(4), 120, 100, Eigen::Matrix2d::Identity(), {0, 0});
+  const GradientImage with = GradientImage::FromGrey(grey);
+  const GradientImage without = GradientImage::FromGrey(grey, false);
+  CHECK(without.grad_x.empty());
+  const Eigen::Vector2d uv(40.3, 51.8);
+  const int h = 5;
+  PatchTemplate a, b;
+  REQUIRE(a.Extract(with, uv, h));
+  REQUIRE(b.Extract(without, uv, h));
+  CHECK(a.samples == b.samples);
+  CHECK(a.steepest_descent == b.steepest_descent);
+  CHECK(a.affine_ok);
+  CHECK(a.translation_ok);
+  const auto bilinear = [](const cv::Mat& m, double u, double v) {
+    const int x = static_cast<int>(std::floor(u)), y = static_cast<int>(std::floor(v));
+    const double fx = u - x, fy = v - y;
+    return (1 - fy) * ((1 - fx) * m.at<float>(y, x) + fx * m.at<float>(y, x + 1)) +
+           fy * ((1 - fx) * m.at<float>(y + 1, x) + fx * m.at<float>(y + 1, x + 1));
+  };
+  const std::size_t n = a.samples.size();
+  Eigen::MatrixXd sd(static_cast<Eigen::Index>(n), 6);
+  Eigen::VectorXd t(static_cast<Eigen::Index>(n));
+  std::size_t k = 0;
+  for (int y = -h; y <= h; ++y) {
+    for (int x = -h; x <= h; ++x, ++k) {
+      const double gx = bilinear(with.grad_x, uv.x() + x, uv.y() + y);
+      const double gy = bilinear(with.grad_y, uv.x() + x, uv.y() + y);
+      sd.row(static_cast<Eigen::Index>(k)) << gx, gy, gx * x, gx * y, gy * x, gy * y;
+      t(static_cast<Eigen::Index>(k)) = a.samples[k] - a.mean;
+    }
+  }
+  const Eigen::VectorXd unit = Eigen::VectorXd::Ones(static_cast<Eigen::Index>(n)) /
+                               std::sqrt(static_cast<double>(n));
+  const Eigen::VectorXd t_unit = t.normalized();
+  double worst = 0.0, largest = 0.0;
+  for (int j = 0; j < 6; ++j) {
+    Eigen::VectorXd col = sd.col(j);
+    col -= unit * unit.dot(col) + t_unit * t_unit.dot(col);
+    for (std::size_t i = 0; i < n; ++i) {
+      worst = std::max(worst, std::abs(col(static_cast<Eigen::Index>(i)) -
+                                       a.steepest_descent[6 * i + static_cast<std::size_t>(j)]));
+      largest = std::max(largest, std::abs(col(static_cast<Eigen::Index>(i))));
+    }
+  }
+  INFO("worst difference " << worst << " of values up to " << largest);
+  CHECK(worst < 1e-4 * largest);
+  // The same image aligned onto itself stays put, in one iteration.
+  const PatchAlignment self =
+      AlignPatchTemplate(a, without, uv, Eigen::Matrix2d::Identity(), Options("affine"));
+  REQUIRE(self.ok());
+  CHECK((self.center - uv).norm() < 1e-3);
+  CHECK(self.iterations == 1);
+}

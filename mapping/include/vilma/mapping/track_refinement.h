@@ -11,13 +11,25 @@
 // point: the first observation's placement error becomes part of the landmark's definition
 // (a constant offset on the surface), and what is left is the alignment's own noise.
 //
-// Alignment (Lucas-Kanade, forward additive; Baker & Matthews, IJCV 2004, sec. 2): parameters
-// the patch centre c in the current image, the 2x2 warp A (affine mode; identity in
-// translation mode) and a gain g and offset b for the brightness; minimized over the patch's
-// samples o in {-h..h}^2
+// Alignment: parameters the patch centre c in the current image, the 2x2 warp A (affine mode;
+// identity in translation mode) and a gain g and offset b for the brightness; minimized over
+// the patch's samples o in {-h..h}^2
 //   E = sum_o ( I(c + A o) - (g T(o) + b) )^2
-// with T the reference samples and I the current image, bilinear, by Gauss-Newton:
-//   dr/dc = grad I,  dr/dA_ij = (grad I)_i o_j,  dr/dg = -T(o),  dr/db = -1.
+// with T the reference samples and I the current image, bilinear. Since min over (g, b) of E is
+// || P I(c + A .) ||^2 with P the projection onto the complement of span{T, 1}, the solver
+// (AlignPatchTemplate) is Lucas-Kanade in its inverse compositional, "project out" form (Baker &
+// Matthews, IJCV 2004, sec. 3.2, and "Lucas-Kanade 20 years on, part 3", 2003, sec. 4.2): the
+// template is the track's first observation, fixed, so its steepest-descent images
+//   SD = P [T_x, T_y, T_x o_x, T_x o_y, T_y o_x, T_y o_y]   (grad T times dW/dp at p = 0)
+// and the Gauss-Newton matrix H = SD^T SD are computed once per track (PatchTemplate::Extract);
+// each iteration samples I once per sample (no image gradients) and takes
+//   dp = H^-1 SD^T I(c + A o) / g,   (c, A) <- (c, A) o (dc, 1 + dA)^-1
+// with g = <I, T - mean T> / |T - mean T|^2 the current gain (the template's gradient scaled by
+// g; without the division the step would overshoot by g). At convergence it solves the same
+// problem as the forward additive Gauss-Newton on (c, A, g, b) (dr/dc = grad I, dr/dA_ij =
+// (grad I)_i o_j, dr/dg = -T(o), dr/db = -1), kept as AlignPatchTemplateForwardAdditive (the
+// reference in tests and the benchmark): ~0.001 px apart on synthetic warps
+// (tests/mapping/track_refinement_test.cpp).
 // It starts from the previous observation's aligned centre moved by the detector's motion
 // between the two keyframes (c0 = c_prev + u_det - u_det_prev: the detector's own offset
 // cancels) and the previous warp. An alignment that fails (leaves the image, does not
@@ -71,19 +83,41 @@ struct TrackRefinementOptions {
 // An 8-bit grey image as float with its central-difference gradients, for sampling.
 struct GradientImage {
   cv::Mat intensity;  // CV_32F
-  cv::Mat grad_x;     // CV_32F, dI/du [grey/px]
+  cv::Mat grad_x;     // CV_32F, dI/du [grey/px]; empty unless made with gradients
   cv::Mat grad_y;     // CV_32F, dI/dv
-  // Throws std::invalid_argument unless `grey` is a non-empty CV_8UC1 image.
-  static GradientImage FromGrey(const cv::Mat& grey);
+  // Throws std::invalid_argument unless `grey` is a non-empty CV_8UC1 image. The inverse
+  // compositional solver and PatchTemplate::Extract need the intensity only; the forward
+  // additive solver needs the gradients.
+  static GradientImage FromGrey(const cv::Mat& grey, bool with_gradients = true);
 };
 
-// The reference samples T(o) of a track, row-major over o = (x, y), x fastest.
+// The reference samples T(o) of a track, row-major over o = (x, y), x fastest, and what the
+// inverse compositional solver precomputes from them (see the header comment).
 struct PatchTemplate {
   int half_size = 0;
   std::vector<float> samples;
-  // Samples `image` bilinearly at uv + o; false when a sample (with the gradient's border)
-  // leaves the image.
+  std::vector<float> gradients;  // per sample dT/du, dT/dv (central differences) [grey/px]
+  bool prepared = false;         // the members below are set (Prepare)
+  // Per sample the six steepest-descent values P [T_x, T_y, T_x o_x, T_x o_y, T_y o_x,
+  // T_y o_y] (translation uses the first two: P acts column by column).
+  std::vector<float> steepest_descent;
+  double mean = 0.0;         // mean of the samples [grey]
+  double centered_sq = 0.0;  // sum of (T - mean)^2 [grey^2]
+  // H^-1 with H = SD^T SD: affine (6x6) and translation (its top-left 2x2 block's inverse);
+  // *_ok false when H is not positive definite (a flat or one-dimensional patch).
+  Eigen::Matrix<double, 6, 6> hessian_inv_affine = Eigen::Matrix<double, 6, 6>::Zero();
+  Eigen::Matrix2d hessian_inv_translation = Eigen::Matrix2d::Zero();
+  bool affine_ok = false;
+  bool translation_ok = false;
+  // Samples `image` bilinearly at uv + o (and at uv + o +- 1 for the central-difference
+  // gradient, equal to sampling the gradient images); false when a sample (with the gradient's
+  // border) leaves the image.
   bool Extract(const GradientImage& image, const Eigen::Vector2d& uv, int half_size);
+  // Extract in two steps: the samples and gradients (Sample; all the forward additive solver
+  // needs), then what the inverse compositional solver precomputes (Prepare; the refiner
+  // prepares a track's template at its first continuation only).
+  bool Sample(const GradientImage& image, const Eigen::Vector2d& uv, int half_size);
+  void Prepare();
 };
 
 struct PatchAlignment {
@@ -101,10 +135,19 @@ struct PatchAlignment {
 };
 const char* PatchAlignmentStatusName(PatchAlignment::Status status);
 
-// Aligns `patch` in `image` from centre c0 and warp A0 (see the header comment).
+// Aligns `patch` in `image` from centre c0 and warp A0 (see the header comment): inverse
+// compositional; `image` needs no gradients.
 PatchAlignment AlignPatchTemplate(const PatchTemplate& patch, const GradientImage& image,
                                   const Eigen::Vector2d& c0, const Eigen::Matrix2d& A0,
                                   const TrackRefinementOptions& options);
+// The same problem by forward additive Gauss-Newton on (c, A, g, b), three bilinear samples and
+// an 8x8 normal-equation update per sample and iteration (the solver before 2026-11-27 night;
+// the reference of the tests and the benchmark). `image` needs its gradients.
+PatchAlignment AlignPatchTemplateForwardAdditive(const PatchTemplate& patch,
+                                                 const GradientImage& image,
+                                                 const Eigen::Vector2d& c0,
+                                                 const Eigen::Matrix2d& A0,
+                                                 const TrackRefinementOptions& options);
 
 struct TrackRefinementStats {
   int64_t refined = 0;  // observations moved to the aligned position
@@ -130,6 +173,10 @@ class TrackRefiner {
   // Forgets every track (the tracker was reset).
   void Reset() { tracks_.clear(); }
   const TrackRefinementStats& stats() const { return stats_; }
+  // The solver (tests and the benchmark compare the two; not an option: the inverse
+  // compositional one is the refinement, the forward additive one its reference).
+  enum class Solver { kInverseCompositional, kForwardAdditive };
+  void set_solver(Solver solver) { solver_ = solver; }
 
  private:
   struct Track {
@@ -143,7 +190,9 @@ class TrackRefiner {
   TrackRefinementOptions options_;
   int64_t next_split_id_;
   std::unordered_map<int64_t, Track> tracks_;  // by tracker id
+  std::unordered_map<int64_t, Track> next_;    // the next keyframe's (kept: its buckets reused)
   TrackRefinementStats stats_;
+  Solver solver_ = Solver::kInverseCompositional;
 };
 
 }  // namespace vilma::mapping
