@@ -105,6 +105,27 @@ TEST_CASE("A long edge (5 s, 1000 samples) equals its parts composed") {
   CHECK(Eigen::LLT<Eigen::Matrix<double, 9, 9>>(whole.covariance()).info() == Eigen::Success);
 }
 
+TEST_CASE("The covariance's four noise components add up to it and scale with their density") {
+  const SimulatedImu s = Simulate(2.0);
+  const std::vector<ImuSample> samples(s.imu.samples.begin(), s.imu.samples.begin() + 201);
+  ImuNoise noise;  // EuRoC's densities
+  const ImuPreintegration pre(samples, noise, Eigen::Vector3d(0.01, -0.02, 0.005),
+                              Eigen::Vector3d(0.1, 0.05, -0.2));
+  const auto parts = pre.NoiseComponents();
+  const Eigen::Matrix<double, 15, 15> sum = parts[0] + parts[1] + parts[2] + parts[3];
+  // Equal but for the 1e-12 floor on the covariance of [δφ, δv, δp].
+  CHECK((sum - pre.full_covariance()).cwiseAbs().maxCoeff() < 2e-12);
+  // Each part is that density's alone: the gyroscope's white noise times 3 -> its part times 9.
+  noise.gyroscope_noise_density *= 3.0;
+  const ImuPreintegration scaled(samples, noise, pre.gyro_bias(), pre.accel_bias());
+  const auto scaled_parts = scaled.NoiseComponents();
+  CHECK((scaled_parts[0] - 9.0 * parts[0]).norm() < 1e-9 * parts[0].norm());
+  for (int k = 1; k < 4; ++k) CHECK((scaled_parts[k] - parts[k]).norm() == 0.0);
+  // The gyroscope's white noise reaches δφ; the accelerometer's does not.
+  CHECK(parts[0].block<3, 3>(0, 0).trace() > 0.0);
+  CHECK(parts[1].block<3, 3>(0, 0).norm() == 0.0);
+}
+
 TEST_CASE("Preintegration refuses bad samples") {
   ImuSample s0, s1;
   s1.t_ns = 5'000'000;

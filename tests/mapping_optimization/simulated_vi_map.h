@@ -2,7 +2,9 @@
 // simulator trajectory in the room (M = W), a vertex every 0.1 s with its true pose, velocity and
 // zero biases, IMU edges from the simulator's noise-free IMU (200 Hz), and landmarks placed
 // 2-5 m in front of every 5th vertex's camera, observed by the vertices within 1 s that see them
-// (exact projections plus optional pixel noise). Every landmark is good.
+// (exact projections plus optional pixel noise). Every landmark is good. With `imu_sim` the IMU
+// samples are drawn with those options (noise, random walk, turn-on biases) instead of exactly,
+// and the vertices carry the true biases; `samples_per_vertex` sets the vertex spacing.
 #pragma once
 
 #include <random>
@@ -25,14 +27,17 @@ struct SimulatedViMap {
 };
 
 inline SimulatedViMap MakeSimulatedViMap(double seconds = 4.0, double noise_px = 0.0,
-                                         uint64_t seed = 5) {
+                                         uint64_t seed = 5,
+                                         const sim::ImuSimOptions* imu_sim = nullptr,
+                                         std::size_t samples_per_vertex = 20) {
   SimulatedViMap s;
   const sim::World world = sim::MakePresetWorld("room", 1);
   sim::TrajectoryOptions t;
   t.duration_s = seconds + 1.0;
   t.static_start_s = 0.3;
   const sim::Trajectory trajectory = sim::GenerateTrajectory(world, t, seed);
-  sim::ImuSimOptions imu_options = sim::ImuSimOptions::NoiseFree();
+  const sim::ImuSimOptions imu_options =
+      imu_sim != nullptr ? *imu_sim : sim::ImuSimOptions::NoiseFree();
   sim::Rng rng(seed);
   const int64_t t0 = 1'000'000'000LL;
   const sim::ImuSimResult imu = sim::SimulateImu(trajectory, t0, seconds, imu_options, &rng);
@@ -49,9 +54,10 @@ inline SimulatedViMap MakeSimulatedViMap(double seconds = 4.0, double noise_px =
   const Transformation T_I_C = mission.rig.cameras[0].T_I_C;
   const Camera& camera = mission.rig.cameras[0].camera;
 
-  // Vertices every 20 samples (0.1 s), IMU edges holding the samples between them.
+  // Vertices every samples_per_vertex samples (20: 0.1 s), IMU edges holding the samples
+  // between them.
   std::vector<mapstore::VertexId> chain;
-  const std::size_t step = 20;
+  const std::size_t step = samples_per_vertex;
   for (std::size_t k = 0; k < imu.samples.size(); k += step) {
     const GroundTruthState& g = imu.ground_truth[k];
     mapstore::Vertex v;
@@ -60,6 +66,8 @@ inline SimulatedViMap MakeSimulatedViMap(double seconds = 4.0, double noise_px =
     v.t_ns = g.t_ns;
     v.T_M_I = Transformation(g.q_W_I, g.p_W_I);
     v.v_M = g.v_W;
+    v.gyro_bias = g.b_g;
+    v.accel_bias = g.b_a;
     v.frames.emplace_back();
     s.T_M_I_true.push_back(v.T_M_I);
     if (chain.empty()) s.map.mission(mission.id).root_vertex_id = v.id;

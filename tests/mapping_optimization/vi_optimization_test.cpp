@@ -252,6 +252,48 @@ TEST_CASE("optvi: ba_imu_noise_scale multiplies the IMU densities (inertial cost
   CHECK_THROWS_WITH(OptimizeViMap(o, &b), Catch::Contains("ba_imu_noise_scale"));
 }
 
+TEST_CASE("optvi: ba_gyro_noise_scale and ba_accel_noise_scale scale one sensor each") {
+  SimulatedViMap s = MakeSimulatedViMap(2.0);
+  Perturb(&s, 0.02, 0.2, 7);
+  ViOptimizationOptions o = Quiet();
+  o.visual = false;
+  o.ba_initialize_imu_states = false;
+  o.ba_num_iterations = 1;
+  auto cost = [&](const ViOptimizationOptions& options) {
+    mapstore::VIMap m = s.map.Clone();
+    return OptimizeViMap(options, &m).initial_cost;
+  };
+  const double cost1 = cost(o);
+  o.ba_imu_noise_scale = 4.0;
+  const double cost_all = cost(o);
+  o.ba_imu_noise_scale = 1.0;
+  o.ba_gyro_noise_scale = 4.0;
+  o.ba_accel_noise_scale = 4.0;
+  // Both sensors times 4 is ba_imu_noise_scale 4, to the last bit.
+  CHECK(cost(o) == cost_all);
+  o.ba_gyro_noise_scale = 1.0;
+  const double cost_accel = cost(o);
+  o.ba_accel_noise_scale = 1.0;
+  o.ba_gyro_noise_scale = 4.0;
+  const double cost_gyro = cost(o);
+  // Either alone lowers the cost, and not as far as both.
+  CHECK(cost_accel < cost1);
+  CHECK(cost_gyro < cost1);
+  CHECK(cost_accel > cost_all);
+  CHECK(cost_gyro > cost_all);
+  // The scales multiply: ba_imu_noise_scale 2 with ba_accel_noise_scale 2 and
+  // ba_gyro_noise_scale 2 is every density times 4.
+  o.ba_imu_noise_scale = 2.0;
+  o.ba_gyro_noise_scale = 2.0;
+  o.ba_accel_noise_scale = 2.0;
+  CHECK(cost(o) == Approx(cost_all).epsilon(1e-12));
+  o.ba_gyro_noise_scale = 0.0;
+  CHECK_THROWS_WITH(cost(o), Catch::Contains("ba_gyro_noise_scale"));
+  o.ba_gyro_noise_scale = 1.0;
+  o.ba_accel_noise_scale = -1.0;
+  CHECK_THROWS_WITH(cost(o), Catch::Contains("ba_accel_noise_scale"));
+}
+
 TEST_CASE("optvi: bad input and cancel leave the map untouched") {
   SimulatedViMap s = MakeSimulatedViMap(2.0);
   Perturb(&s, 0.02, 0.2, 6);

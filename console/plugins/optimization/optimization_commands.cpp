@@ -33,6 +33,24 @@ Command<O> OptimizationFlags(Command<O> c) {
           .Flag("ba_fix_extrinsics", &O::ba_fix_extrinsics, "hold the camera extrinsics T_I_C")
           .Flag("ba_imu_noise_scale", &O::ba_imu_noise_scale,
                 "multiplies the rig's IMU noise densities and random walks (optvi; 1: as they are)")
+          .Flag("ba_gyro_noise_scale", &O::ba_gyro_noise_scale,
+                "multiplies the gyroscope's noise density and random walk (optvi; on top of "
+                "ba_imu_noise_scale)")
+          .Flag("ba_accel_noise_scale", &O::ba_accel_noise_scale,
+                "multiplies the accelerometer's noise density and random walk (optvi; on top of "
+                "ba_imu_noise_scale)")
+          .Flag("ba_estimate_noise_scales", &O::ba_estimate_noise_scales,
+                "variance component estimation: rescale the keypoint noise and the four IMU "
+                "densities to their residuals and solve again (optvi)")
+          .Flag("ba_noise_scale_rounds", &O::ba_noise_scale_rounds,
+                "solves in all with ba_estimate_noise_scales")
+          .Flag("ba_noise_scale_tolerance", &O::ba_noise_scale_tolerance,
+                "noise scales converged when every sqrt(variance factor) is within this of 1")
+          .Flag("ba_noise_scale_max", &O::ba_noise_scale_max,
+                "bound on each estimated noise scale (both ways)")
+          .Flag("ba_noise_scale_visual", &O::ba_noise_scale_visual,
+                "with ba_estimate_noise_scales: rescale the keypoint noise too (false: the IMU's "
+                "components only)")
           .Flag("ba_estimate_time_offset", &O::ba_estimate_time_offset,
                 "estimate a camera-IMU time offset per camera (optvi)")
           .Flag("ba_estimate_baseframe_tilt", &O::ba_estimate_baseframe_tilt,

@@ -62,14 +62,7 @@ void ImuPreintegration::Integrate() {
   dv_dba_.setZero();
   dp_dbg_.setZero();
   dp_dba_.setZero();
-  covariance_.setZero();
   dt_s_ = 0.0;
-  const double sg2 = noise_.gyroscope_noise_density * noise_.gyroscope_noise_density;
-  const double sa2 = noise_.accelerometer_noise_density * noise_.accelerometer_noise_density;
-  // A zero random walk (a noise-free simulated IMU) still needs a finite weight.
-  const double sbg2 = std::pow(std::max(noise_.gyroscope_random_walk, 1e-9), 2);
-  const double sba2 = std::pow(std::max(noise_.accelerometer_random_walk, 1e-9), 2);
-  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
   for (std::size_t k = 0; k + 1 < samples_.size(); ++k) {
     const double dt = 1e-9 * static_cast<double>(samples_[k + 1].t_ns - samples_[k].t_ns);
     const Eigen::Vector3d w = 0.5 * (samples_[k].omega_I + samples_[k + 1].omega_I) - gyro_bias_;
@@ -79,27 +72,6 @@ void ImuPreintegration::Integrate() {
     const Eigen::Vector3d phi = w * dt;
     const Eigen::Matrix3d dR = ExpSO3(phi).toRotationMatrix();
     const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
-
-    // Covariance of [δφ, δv, δp, w_g, w_a] (Forster eq. 62 with the bias random walk w = b - b_i
-    // as states): Σ <- A Σ Aᵀ + B_g Σ_g B_gᵀ + B_a Σ_a B_aᵀ + Σ_w.
-    Eigen::Matrix<double, 15, 15> A = Eigen::Matrix<double, 15, 15>::Identity();
-    A.block<3, 3>(0, 0) = dR.transpose();
-    A.block<3, 3>(3, 0) = -R * a_skew * dt;
-    A.block<3, 3>(6, 0) = -0.5 * R * a_skew * dt * dt;
-    A.block<3, 3>(6, 3) = I * dt;
-    A.block<3, 3>(0, 9) = -Jr * dt;
-    A.block<3, 3>(3, 12) = -R * dt;
-    A.block<3, 3>(6, 12) = -0.5 * R * dt * dt;
-    Eigen::Matrix<double, 15, 3> Bg = Eigen::Matrix<double, 15, 3>::Zero();
-    Bg.block<3, 3>(0, 0) = Jr * dt;
-    Eigen::Matrix<double, 15, 3> Ba = Eigen::Matrix<double, 15, 3>::Zero();
-    Ba.block<3, 3>(3, 0) = R * dt;
-    Ba.block<3, 3>(6, 0) = 0.5 * R * dt * dt;
-    covariance_ = A * covariance_ * A.transpose() + Bg * (sg2 / dt) * Bg.transpose() +
-                  Ba * (sa2 / dt) * Ba.transpose();
-    covariance_.block<3, 3>(9, 9).diagonal().array() += sbg2 * dt;
-    covariance_.block<3, 3>(12, 12).diagonal().array() += sba2 * dt;
-
     // Bias Jacobians (Forster appendix B), from the values at k.
     dp_dba_ += dv_dba_ * dt - 0.5 * R * dt * dt;
     dp_dbg_ += dv_dbg_ * dt - 0.5 * R * a_skew * dR_dbg_ * dt * dt;
@@ -115,9 +87,62 @@ void ImuPreintegration::Integrate() {
     delta_R_ = (delta_R_ * ExpSO3(phi)).normalized();
     dt_s_ += dt;
   }
-  // Symmetric and strictly positive definite (a zero-noise rig would give a singular one).
-  covariance_ = 0.5 * (covariance_ + covariance_.transpose());
+  // A zero random walk (a noise-free simulated IMU) still needs a finite weight.
+  covariance_ = PropagateCovariance(
+      noise_.gyroscope_noise_density * noise_.gyroscope_noise_density,
+      noise_.accelerometer_noise_density * noise_.accelerometer_noise_density,
+      std::pow(std::max(noise_.gyroscope_random_walk, 1e-9), 2),
+      std::pow(std::max(noise_.accelerometer_random_walk, 1e-9), 2));
+  // Strictly positive definite (a zero-noise rig would give a singular one).
   covariance_.topLeftCorner<9, 9>() += 1e-12 * Eigen::Matrix<double, 9, 9>::Identity();
+}
+
+Eigen::Matrix<double, 15, 15> ImuPreintegration::PropagateCovariance(double sg2, double sa2,
+                                                                     double sbg2,
+                                                                     double sba2) const {
+  const Eigen::Matrix3d I = Eigen::Matrix3d::Identity();
+  Eigen::Matrix<double, 15, 15> covariance = Eigen::Matrix<double, 15, 15>::Zero();
+  Eigen::Quaterniond delta_R = Eigen::Quaterniond::Identity();
+  for (std::size_t k = 0; k + 1 < samples_.size(); ++k) {
+    const double dt = 1e-9 * static_cast<double>(samples_[k + 1].t_ns - samples_[k].t_ns);
+    const Eigen::Vector3d w = 0.5 * (samples_[k].omega_I + samples_[k + 1].omega_I) - gyro_bias_;
+    const Eigen::Vector3d a = 0.5 * (samples_[k].a_I + samples_[k + 1].a_I) - accel_bias_;
+    const Eigen::Matrix3d R = delta_R.toRotationMatrix();  // ΔR_k
+    const Eigen::Matrix3d a_skew = Skew(a);
+    const Eigen::Vector3d phi = w * dt;
+    const Eigen::Matrix3d dR = ExpSO3(phi).toRotationMatrix();
+    const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
+    // Covariance of [δφ, δv, δp, w_g, w_a] (Forster eq. 62 with the bias random walk w = b - b_i
+    // as states): Σ <- A Σ Aᵀ + B_g Σ_g B_gᵀ + B_a Σ_a B_aᵀ + Σ_w.
+    Eigen::Matrix<double, 15, 15> A = Eigen::Matrix<double, 15, 15>::Identity();
+    A.block<3, 3>(0, 0) = dR.transpose();
+    A.block<3, 3>(3, 0) = -R * a_skew * dt;
+    A.block<3, 3>(6, 0) = -0.5 * R * a_skew * dt * dt;
+    A.block<3, 3>(6, 3) = I * dt;
+    A.block<3, 3>(0, 9) = -Jr * dt;
+    A.block<3, 3>(3, 12) = -R * dt;
+    A.block<3, 3>(6, 12) = -0.5 * R * dt * dt;
+    Eigen::Matrix<double, 15, 3> Bg = Eigen::Matrix<double, 15, 3>::Zero();
+    Bg.block<3, 3>(0, 0) = Jr * dt;
+    Eigen::Matrix<double, 15, 3> Ba = Eigen::Matrix<double, 15, 3>::Zero();
+    Ba.block<3, 3>(3, 0) = R * dt;
+    Ba.block<3, 3>(6, 0) = 0.5 * R * dt * dt;
+    covariance = A * covariance * A.transpose() + Bg * (sg2 / dt) * Bg.transpose() +
+                 Ba * (sa2 / dt) * Ba.transpose();
+    covariance.block<3, 3>(9, 9).diagonal().array() += sbg2 * dt;
+    covariance.block<3, 3>(12, 12).diagonal().array() += sba2 * dt;
+    delta_R = (delta_R * ExpSO3(phi)).normalized();
+  }
+  return 0.5 * (covariance + covariance.transpose());
+}
+
+std::array<Eigen::Matrix<double, 15, 15>, 4> ImuPreintegration::NoiseComponents() const {
+  const double sg2 = noise_.gyroscope_noise_density * noise_.gyroscope_noise_density;
+  const double sa2 = noise_.accelerometer_noise_density * noise_.accelerometer_noise_density;
+  const double sbg2 = std::pow(std::max(noise_.gyroscope_random_walk, 1e-9), 2);
+  const double sba2 = std::pow(std::max(noise_.accelerometer_random_walk, 1e-9), 2);
+  return {PropagateCovariance(sg2, 0, 0, 0), PropagateCovariance(0, sa2, 0, 0),
+          PropagateCovariance(0, 0, sbg2, 0), PropagateCovariance(0, 0, 0, sba2)};
 }
 
 Eigen::Quaterniond ImuPreintegration::CorrectedDeltaR(const Eigen::Vector3d& gyro_bias) const {

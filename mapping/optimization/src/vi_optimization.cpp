@@ -18,6 +18,7 @@
 #include "vilma/mapping/optimization/pose_manifold.h"
 #include "vilma/mapping/optimization/reprojection_residual.h"
 #include "vilma/mapping/optimization/time_offset_residual.h"
+#include "variance_components.h"
 #include "vi_problem_util.h"
 
 namespace vilma::mapping {
@@ -38,9 +39,9 @@ using vi_problem::PixelError;
 using vi_problem::RmsePx;
 using vi_problem::SecondsSince;
 
-ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap* map,
-                                    const std::vector<MissionId>& missions,
-                                    ProgressObserver* progress) {
+ViOptimizationSummary SolveViMap(const ViOptimizationOptions& options, const NoiseScales& scales,
+                                 VIMap* map, const std::vector<MissionId>& missions,
+                                 ProgressObserver* progress, NoiseFactors* factors) {
   const auto start = std::chrono::steady_clock::now();
   const std::string problem_text = options.Validate();
   if (!problem_text.empty()) throw std::invalid_argument("optimization options: " + problem_text);
@@ -151,6 +152,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   std::vector<std::unique_ptr<ImuPreintegration>> preintegrations;
   std::vector<VertexId> preintegration_from, preintegration_to;
   std::vector<double> preintegration_gravity;
+  std::vector<vi_problem::InertialBlock> inertial_blocks;
   if (options.inertial) {
     for (const MissionId& m : selected) {
       const std::vector<VertexId> chain = map->VertexChain(m);
@@ -160,11 +162,14 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
       }
       if (chain.size() < 2) continue;
       const SensorRig& rig = map->mission(m).rig;
-      ImuNoise noise = rig.imu.noise;  // times ba_imu_noise_scale (model mismatch)
-      noise.gyroscope_noise_density *= options.ba_imu_noise_scale;
-      noise.accelerometer_noise_density *= options.ba_imu_noise_scale;
-      noise.gyroscope_random_walk *= options.ba_imu_noise_scale;
-      noise.accelerometer_random_walk *= options.ba_imu_noise_scale;
+      // The rig's densities times the options' scales (model mismatch) and the solve's.
+      ImuNoise noise = rig.imu.noise;
+      const double gyro = options.ba_imu_noise_scale * options.ba_gyro_noise_scale;
+      const double accel = options.ba_imu_noise_scale * options.ba_accel_noise_scale;
+      noise.gyroscope_noise_density *= gyro * scales.sigma[1];
+      noise.accelerometer_noise_density *= accel * scales.sigma[2];
+      noise.gyroscope_random_walk *= gyro * scales.sigma[3];
+      noise.accelerometer_random_walk *= accel * scales.sigma[4];
       for (const mapstore::EdgeId& eid : map->edge_ids(m)) {
         const mapstore::Edge& e = map->edge(eid);
         if (e.type != EdgeType::kImu) continue;
@@ -185,9 +190,9 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
         // The samples cover both vertex times exactly (interpolated there).
         omega_m_I.emplace(e.from, e.imu_samples.front().omega_I);
         omega_m_I.emplace(e.to, e.imu_samples.back().omega_I);
-        problem.AddResidualBlock(
+        inertial_blocks.push_back({problem.AddResidualBlock(
             new InertialCostFunction(preintegrations.back().get(), rig.imu.gravity_magnitude),
-            nullptr, pose_i, speed_bias_i, pose_j, speed_bias_j);
+            nullptr, pose_i, speed_bias_i, pose_j, speed_bias_j), preintegrations.back().get()});
         ++summary.inertial_residuals;
       }
       if (summary.inertial_residuals == 0 && chain.size() > 1) {
@@ -216,7 +221,8 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
           const mapstore::Mission& observer = map->mission(v.mission_id);
           const mapstore::Keypoint& keypoint = v.frames.at(o.camera).keypoints.at(o.keypoint);
           const double sigma_px =
-              options.keypoint_sigma_px > 0.0 ? options.keypoint_sigma_px : keypoint.sigma_px;
+              scales.sigma[0] *
+              (options.keypoint_sigma_px > 0.0 ? options.keypoint_sigma_px : keypoint.sigma_px);
           Observation ob{lid,
                          o,
                          &observer.rig.cameras.at(o.camera).camera,
@@ -510,6 +516,13 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
     if (round.termination_type == ceres::CONVERGENCE && outliers == 0 && reintegrated == 0) break;
   }
   summary.reprojection_rmse_after_px = RmsePx(observations);
+  if (factors != nullptr) {
+    std::vector<ceres::ResidualBlockId> visual_blocks;
+    for (const Observation& o : observations) {
+      if (o.residual != nullptr) visual_blocks.push_back(o.residual);
+    }
+    *factors = vi_problem::EstimateVarianceComponents(&problem, inertial_blocks, visual_blocks);
+  }
 
   // ---- write back: vertices first (landmarks are stored relative to their store vertex)
   for (const auto& [id, pose] : poses) {
@@ -561,25 +574,7 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, VIMap*
   map->RemoveLandmarks(orphans);
 
   for (const MissionId& m : selected) {
-    MissionChange c;
-    c.mission = m;
-    double sum_shift = 0.0, sum_rotation = 0.0;
-    for (const VertexId& v : map->vertex_ids(m)) {
-      const Transformation& before = T_G_I_before.at(v);
-      const Transformation after = map->T_G_I(v);
-      const double shift = (after.translation() - before.translation()).norm();
-      const double rotation = AngleBetween(after.rotation(), before.rotation()) * 180.0 / M_PI;
-      sum_shift += shift;
-      sum_rotation += rotation;
-      c.max_shift_m = std::max(c.max_shift_m, shift);
-      c.max_rotation_deg = std::max(c.max_rotation_deg, rotation);
-      ++c.vertices;
-    }
-    if (c.vertices > 0) {
-      c.mean_shift_m = sum_shift / static_cast<double>(c.vertices);
-      c.mean_rotation_deg = sum_rotation / static_cast<double>(c.vertices);
-    }
-    summary.missions.push_back(c);
+    summary.missions.push_back(vi_problem::ChangeOf(*map, m, T_G_I_before));
   }
   if (options.evaluate_quality) {
     const LandmarkQualitySummary q = EvaluateLandmarkQualities(options.quality, map, selected);

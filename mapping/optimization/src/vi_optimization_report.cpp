@@ -28,6 +28,22 @@ std::string ViOptimizationOptions::Validate() const {
   if (!(ba_imu_noise_scale > 0 && std::isfinite(ba_imu_noise_scale))) {
     return "ba_imu_noise_scale: expected > 0 (1: the rig's IMU densities)";
   }
+  if (!(ba_gyro_noise_scale > 0 && std::isfinite(ba_gyro_noise_scale))) {
+    return "ba_gyro_noise_scale: expected > 0 (1: the rig's gyroscope densities)";
+  }
+  if (!(ba_accel_noise_scale > 0 && std::isfinite(ba_accel_noise_scale))) {
+    return "ba_accel_noise_scale: expected > 0 (1: the rig's accelerometer densities)";
+  }
+  if (ba_estimate_noise_scales && !(inertial && visual)) {
+    return "ba_estimate_noise_scales: needs inertial and visual terms (optvi)";
+  }
+  if (ba_noise_scale_rounds < 1) return "ba_noise_scale_rounds: expected >= 1";
+  if (!(ba_noise_scale_tolerance > 0 && ba_noise_scale_tolerance < 1)) {
+    return "ba_noise_scale_tolerance: expected in (0, 1)";
+  }
+  if (!(ba_noise_scale_max >= 1 && std::isfinite(ba_noise_scale_max))) {
+    return "ba_noise_scale_max: expected >= 1";
+  }
   if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
   if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
   if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&
@@ -80,6 +96,23 @@ std::string ViOptimizationSummary::FullReport() const {
         << AngleBetween(c.T_I_C_before.rotation(), c.T_I_C_after.rotation()) * 180.0 / M_PI
         << " deg; time offset " << 1000.0 * c.time_offset_before_s << " -> "
         << 1000.0 * c.time_offset_after_s << " ms\n";
+  }
+  for (std::size_t i = 0; i < noise_factors.size(); ++i) {
+    const NoiseFactors& f = noise_factors[i];
+    out << "  noise scales, solve " << i + 1 << ":";
+    for (int k = 0; k < NoiseFactors::kCount; ++k) {
+      out << " " << kNoiseComponentNames[k] << " " << noise_scales[i].sigma[k];
+    }
+    out << "\n    variance factors (chi2 / redundancy):";
+    for (int k = 0; k < NoiseFactors::kCount; ++k) {
+      out << " " << kNoiseComponentNames[k] << " ";
+      if (f.estimated[k]) {
+        out << f.factor[k] << " (" << f.chi2[k] << " / " << f.redundancy[k] << ")";
+      } else {
+        out << "- (redundancy " << f.redundancy[k] << ")";
+      }
+    }
+    out << "\n";
   }
   if (baseframe_tilt_change_deg > 0.0) {
     out << "  baseframe tilt changed by " << baseframe_tilt_change_deg << " deg\n";

@@ -1,5 +1,6 @@
 #include "vi_problem_util.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -56,6 +57,30 @@ ceres::CallbackReturnType CancelCallback::operator()(const ceres::IterationSumma
     return ceres::SOLVER_ABORT;
   }
   return ceres::SOLVER_CONTINUE;
+}
+
+MissionChange ChangeOf(
+    const mapstore::VIMap& map, const mapstore::MissionId& m,
+    const std::unordered_map<mapstore::VertexId, Transformation, mapstore::IdHash>& T_G_I_before) {
+  MissionChange c;
+  c.mission = m;
+  double sum_shift = 0.0, sum_rotation = 0.0;
+  for (const mapstore::VertexId& v : map.vertex_ids(m)) {
+    const Transformation& before = T_G_I_before.at(v);
+    const Transformation after = map.T_G_I(v);
+    const double shift = (after.translation() - before.translation()).norm();
+    const double rotation = AngleBetween(after.rotation(), before.rotation()) * 180.0 / M_PI;
+    sum_shift += shift;
+    sum_rotation += rotation;
+    c.max_shift_m = std::max(c.max_shift_m, shift);
+    c.max_rotation_deg = std::max(c.max_rotation_deg, rotation);
+    ++c.vertices;
+  }
+  if (c.vertices > 0) {
+    c.mean_shift_m = sum_shift / static_cast<double>(c.vertices);
+    c.mean_rotation_deg = sum_rotation / static_cast<double>(c.vertices);
+  }
+  return c;
 }
 
 void CheckFinite(const mapstore::VIMap& map, const mapstore::VertexId& id) {

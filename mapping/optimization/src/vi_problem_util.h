@@ -7,10 +7,12 @@
 
 #include <chrono>
 #include <numeric>
+#include <unordered_map>
 #include <vector>
 
 #include "vilma/core/camera.h"
 #include "vilma/core/progress.h"
+#include "vilma/mapping/optimization/vi_optimization.h"
 #include "vilma/mapstore/vi_map.h"
 
 namespace vilma::mapping::vi_problem {
@@ -59,6 +61,11 @@ class CancelCallback : public ceres::IterationCallback {
  private:
   ProgressObserver* progress_;
 };
+
+// How far mission m's vertices moved in G from `T_G_I_before` (every vertex of m) to the map.
+MissionChange ChangeOf(
+    const mapstore::VIMap& map, const mapstore::MissionId& m,
+    const std::unordered_map<mapstore::VertexId, Transformation, mapstore::IdHash>& T_G_I_before);
 
 // Throws std::invalid_argument when a vertex state is not finite.
 void CheckFinite(const mapstore::VIMap& map, const mapstore::VertexId& id);

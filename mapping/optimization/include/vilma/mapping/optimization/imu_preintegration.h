@@ -23,6 +23,7 @@
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <array>
 #include <vector>
 
 #include "vilma/core/imu.h"
@@ -64,6 +65,12 @@ class ImuPreintegration {
   const Eigen::Vector3d& gyro_bias() const { return gyro_bias_; }  // b̄_g
   const Eigen::Vector3d& accel_bias() const { return accel_bias_; }
   const ImuNoise& noise() const { return noise_; }
+  // The four parts of full_covariance() that come from one noise density each: gyroscope
+  // white noise, accelerometer white noise, gyroscope random walk, accelerometer random walk
+  // (in that order). The propagation is linear in the four variances, so the parts add up to
+  // full_covariance() (but for its 1e-12 floor): Σ = Σ_gw + Σ_aw + Σ_gb + Σ_ab. Variance
+  // component estimation (variance_components.h) weighs each part on its own.
+  std::array<Eigen::Matrix<double, 15, 15>, 4> NoiseComponents() const;
   std::size_t num_samples() const { return samples_.size(); }
 
   // The deltas corrected to first order for biases (b_g, b_a).
@@ -75,6 +82,10 @@ class ImuPreintegration {
 
  private:
   void Integrate();
+  // Propagates the covariance of [δφ, δv, δp, w_g, w_a] over the samples with the given
+  // variances (σ_g², σ_a² white, σ_bg², σ_ba² random walk) at the current linearization biases.
+  Eigen::Matrix<double, 15, 15> PropagateCovariance(double sg2, double sa2, double sbg2,
+                                                    double sba2) const;
 
   std::vector<ImuSample> samples_;
   ImuNoise noise_;

@@ -23,8 +23,13 @@
 // ba_outlier_threshold_px are dropped (outlier rejection, maplab's default), progress is
 // reported (a safe point: Ctrl-C cancels there). Only after the last round is the map written:
 // a failure or a cancel leaves it untouched. Then landmarks are re-evaluated (elq rules).
+//
+// With ba_estimate_noise_scales the solve is repeated with the noise components' sigmas rescaled
+// by variance component estimation (variance_components.h) until they agree with the residuals
+// (on a copy of the map: a failure or a cancel in any solve still leaves it untouched).
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -72,6 +77,27 @@ struct ViOptimizationOptions {
   // (default): the rig's densities as they are. On the real EuRoC moving slice the datasheet
   // densities make optvi trust the IMU's unmodelled errors (docs/optimization-scale.md).
   double ba_imu_noise_scale = 1.0;
+  // On top of ba_imu_noise_scale: the gyroscope's densities (white noise and random walk)
+  // times ba_gyro_noise_scale, the accelerometer's times ba_accel_noise_scale (1: as they are).
+  // The real EuRoC IMU's accelerometer disagrees with its datasheet more than its gyroscope
+  // (docs/optimization-scale.md).
+  double ba_gyro_noise_scale = 1.0;
+  double ba_accel_noise_scale = 1.0;
+  // Variance component estimation (docs/optimization.md "Noise scales estimated from the
+  // data"): after a converged solve, the variance factor of each noise component (keypoint
+  // noise; gyroscope and accelerometer white noise and random walk) from its residuals and
+  // its redundancy; the components' sigmas rescaled by sqrt(factor) and the problem solved
+  // again, until every factor is within ba_noise_scale_tolerance of 1 or after
+  // ba_noise_scale_rounds solves. Starts from the scales above; each scale stays within
+  // [1/ba_noise_scale_max, ba_noise_scale_max]. optvi only.
+  bool ba_estimate_noise_scales = false;
+  int ba_noise_scale_rounds = 5;            // solves in all (the first with the given noise)
+  double ba_noise_scale_tolerance = 0.05;   // |sqrt(factor) - 1| below this: converged
+  double ba_noise_scale_max = 30.0;         // bound on each sigma scale, both ways
+  // Also rescale the keypoint noise (and with it the robust loss, which is in sigma units);
+  // false: the keypoints keep their declared sigma and only the IMU's four components are
+  // rescaled (their factors are still relative to the residuals of the whole problem).
+  bool ba_noise_scale_visual = true;
   bool ba_fix_extrinsics = true;   // camera extrinsics T_I_C held
   // A camera-IMU time offset per mission camera (time_offset_residual.h): how far the image's
   // exposure lies after its vertex time [s], from 0. Needs inertial and visual terms (the
@@ -97,6 +123,29 @@ struct ViOptimizationOptions {
   bool evaluate_quality = true;      // elq after the optimization
   LandmarkQualityOptions quality;
   std::string Validate() const;
+};
+
+// Noise components of the problem, in this order (NoiseScales, NoiseFactors): the keypoint
+// noise of the reprojection residuals, the gyroscope's and the accelerometer's white noise
+// densities, their random walks.
+inline constexpr const char* kNoiseComponentNames[5] = {"visual", "gyro_noise", "accel_noise",
+                                                        "gyro_walk", "accel_walk"};
+
+// Multipliers of each component's sigma (keypoint sigma_px, IMU density) in a solve.
+struct NoiseScales {
+  std::array<double, 5> sigma{1.0, 1.0, 1.0, 1.0, 1.0};
+};
+
+// One variance component estimate at a converged solution (variance_components.h): per
+// component the factor on its variance (1: the weights agree with the residuals), its
+// chi² (rᵀ G_k r), redundancy and rows (tr G_k); not estimated (factor 1): no rows, or
+// redundancy below 3.
+struct NoiseFactors {
+  static constexpr int kCount = 5;
+  std::array<double, 5> factor{1.0, 1.0, 1.0, 1.0, 1.0};
+  std::array<double, 5> chi2{}, redundancy{}, rows{};
+  std::array<bool, 5> estimated{};
+  int unknowns = 0;
 };
 
 struct MissionChange {
@@ -131,6 +180,10 @@ struct ViOptimizationSummary {
   std::vector<CameraCalibrationChange> cameras;  // with free extrinsics or time offsets
   double baseframe_tilt_change_deg = 0.0;        // largest, with ba_estimate_baseframe_tilt
   std::size_t good_landmarks_before = 0, good_landmarks_after = 0;
+  // With ba_estimate_noise_scales: the scales of each solve and the factors estimated after it
+  // (one entry per solve; the last solve's scales are the result).
+  std::vector<NoiseScales> noise_scales;
+  std::vector<NoiseFactors> noise_factors;
   std::string BriefReport() const;
   std::string FullReport() const;
 };
@@ -141,5 +194,13 @@ struct ViOptimizationSummary {
 ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, mapstore::VIMap* map,
                                     const std::vector<mapstore::MissionId>& missions = {},
                                     ProgressObserver* progress = nullptr);
+
+// One solve with the noise components scaled by `scales` (on top of the options' IMU scales);
+// with `factors`, the variance components are estimated at the solution. OptimizeViMap without
+// ba_estimate_noise_scales is SolveViMap with unit scales.
+ViOptimizationSummary SolveViMap(const ViOptimizationOptions& options, const NoiseScales& scales,
+                                 mapstore::VIMap* map,
+                                 const std::vector<mapstore::MissionId>& missions,
+                                 ProgressObserver* progress, NoiseFactors* factors);
 
 }  // namespace vilma::mapping
