@@ -34,9 +34,10 @@
 #   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster),
 #   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4; VIO_MAP_DAEMON_CONFIG=daemon.yaml: table 1's
 #   maps built with that daemon config (e.g. mapping.map_builder with track refinement; use
-#   its own BENCH_WORK); BENCH_LONG=1 adds table 5 (BENCH_LONG_PIPELINES:
-#   its pipelines separated by `|`, default the four above). On a shared machine run it under
-#   `nice -n 10`.
+#   its own BENCH_WORK); BENCH_SIM_PIPELINES: table 1's console pipelines separated by `|`
+#   (default `optvi|lc; rtl; optvi`; `optvi` alone gives issue 12's target-1 rows);
+#   BENCH_LONG=1 adds table 5 (BENCH_LONG_PIPELINES: its pipelines separated by `|`, default
+#   the four above). On a shared machine run it under `nice -n 10`.
 set -euo pipefail
 
 repo_dir=$(cd "$(dirname "$0")/.." && pwd)
@@ -47,7 +48,7 @@ work=${BENCH_WORK:-$cache/bench-optvi}
 shared=${VILMA_SHARED_DATA:-$repo_dir/../shared/data}
 bin=$build_dir/bin
 case "${1:-}" in
-  -h|--help) sed -n '2,39p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
   -*) echo "bench-optvi: unknown option '$1' (see --help)" >&2; exit 2 ;;
 esac
 # The sets scripts/make-datasets.sh knows.
@@ -101,7 +102,9 @@ echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 for set in "${sets[@]}"; do
   map=$(vio_map "$set")
   d=$datasets/$set
-  for pipeline in "optvi" "lc; rtl; optvi"; do
+  IFS='|' read -r -a pipelines <<< "${BENCH_SIM_PIPELINES:-optvi|lc; rtl; optvi}"
+  for pipeline in "${pipelines[@]}"; do
+    pipeline=$(echo "$pipeline" | sed 's/^ *//; s/ *$//')
     out=$work/$set-$(echo "$pipeline" | tr -d ' ;')
     start_s=$(date +%s.%N)
     console "$out.console" "load $map; eval_map $d --json=$out.before.json; $pipeline; \

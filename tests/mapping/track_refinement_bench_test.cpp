@@ -5,7 +5,9 @@
 // nothing it checks.
 //
 //   build/bin/vilma_mapping_tests "[.refine-bench]"
-//   VILMA_REFINE_BENCH_SET     a simulated set (default ~/.cache/vilma/datasets/room-easy)
+//   VILMA_REFINE_BENCH_SET     an ASL set with ground truth (default
+//                              ~/.cache/vilma/datasets/room-easy)
+//   VILMA_REFINE_BENCH_RIG     its rig (default SET/rig.yaml; EuRoC: config/euroc-rig.yaml)
 //   VILMA_REFINE_BENCH_FRAMES  keyframes (cam0 at 10 Hz: every second 20 Hz frame; default 300)
 //   VILMA_REFINE_BENCH_REPEAT  interleaved A/B repeats (default 5)
 //   VILMA_REFINE_BENCH_METHOD  "affine" (default) or "translation"
@@ -95,8 +97,10 @@ TEST_CASE("track refinement benchmark: inverse compositional against forward add
           "[.refine-bench]") {
   const std::string home = Env("HOME", "/root");
   const fs::path set = Env("VILMA_REFINE_BENCH_SET", home + "/.cache/vilma/datasets/room-easy");
-  if (!fs::exists(set / "rig.yaml")) {
-    VILMA_SKIP_OPTIONAL("no simulated set at " << set << " (scripts/make-datasets.sh)");
+  const fs::path rig_file = Env("VILMA_REFINE_BENCH_RIG", (set / "rig.yaml").string());
+  if (!fs::exists(set / "mav0") || !fs::exists(rig_file)) {
+    VILMA_SKIP_OPTIONAL("no set at " << set << " with the rig " << rig_file
+                                     << " (scripts/make-datasets.sh)");
   }
   const int max_keyframes = std::stoi(Env("VILMA_REFINE_BENCH_FRAMES", "300"));
   const int repeat = std::stoi(Env("VILMA_REFINE_BENCH_REPEAT", "5"));
@@ -108,7 +112,7 @@ TEST_CASE("track refinement benchmark: inverse compositional against forward add
   // The tracker's output once (as the map builder: cam0 at 10 Hz, the rotation prior from the
   // ground truth instead of the gyroscope).
   const AslDataset ds = AslDataset::Open(set.string());
-  const SensorRig rig = LoadSensorRig((set / "rig.yaml").string());
+  const SensorRig rig = LoadSensorRig(rig_file.string());
   const auto& gt = ds.ground_truth();
   REQUIRE(!gt.empty());
   localizer::FeatureTracker tracker(MapBuilderOptions().features);
