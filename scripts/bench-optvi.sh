@@ -36,6 +36,7 @@
 #   maps built with that daemon config (e.g. mapping.map_builder with track refinement; use
 #   its own BENCH_WORK); BENCH_SIM_PIPELINES: table 1's console pipelines separated by `|`
 #   (default `optvi|lc; rtl; optvi`; `optvi` alone gives issue 12's target-1 rows);
+#   MOVING_MAP_CONFIG: the real moving slice's map built with that map builder YAML;
 #   BENCH_LONG=1 adds table 5 (BENCH_LONG_PIPELINES: its pipelines separated by `|`, default
 #   the four above). On a shared machine run it under `nice -n 10`.
 set -euo pipefail
@@ -48,7 +49,7 @@ work=${BENCH_WORK:-$cache/bench-optvi}
 shared=${VILMA_SHARED_DATA:-$repo_dir/../shared/data}
 bin=$build_dir/bin
 case "${1:-}" in
-  -h|--help) sed -n '2,40p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help) sed -n '2,41p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
   -*) echo "bench-optvi: unknown option '$1' (see --help)" >&2; exit 2 ;;
 esac
 # The sets scripts/make-datasets.sh knows.
@@ -177,7 +178,10 @@ moving=$shared/euroc_V1_01_moving
 if [ "${BENCH_REAL:-1}" != 0 ] && [ -d "$moving" ]; then
   out=$work/euroc-moving
   rm -rf "$out.map"
-  "$bin/vilma" vio "$moving" --out "$out.txt" --save-map "$out.map" > "$out.vio" 2>&1 ||
+  moving_args=()
+  [ -n "${MOVING_MAP_CONFIG:-}" ] && moving_args=(--map-config "$MOVING_MAP_CONFIG")
+  "$bin/vilma" vio "$moving" --out "$out.txt" --save-map "$out.map" "${moving_args[@]}" \
+    > "$out.vio" 2>&1 ||
     { cat "$out.vio" >&2; exit 1; }
   start_s=$(date +%s.%N)
   console "$out.console" "load $out.map; eval_map $moving --json=$out.before.json; optvi; \
