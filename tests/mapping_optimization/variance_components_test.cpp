@@ -3,7 +3,6 @@
 // (the estimated gyroscope and accelerometer white-noise scales recover k, the keypoint noise's
 // stays 1), or exactly as declared (every estimated scale stays near 1).
 #include <catch2/catch.hpp>
-
 #include <cmath>
 
 #include "mapping_optimization/simulated_vi_map.h"
@@ -105,8 +104,8 @@ TEST_CASE("noise scales: options checked, and a cancel leaves the map untouched"
   const auto v = s.map.VertexChain(s.map.mission_ids()[0])[5];
   const Eigen::Vector3d before = s.map.vertex(v).T_M_I.translation();
   // Start away from the optimum so that the first solve moves the vertices.
-  s.map.vertex(v).T_M_I = Transformation(s.map.vertex(v).T_M_I.rotation(),
-                                         before + Eigen::Vector3d(0.02, 0.0, 0.0));
+  s.map.vertex(v).T_M_I =
+      Transformation(s.map.vertex(v).T_M_I.rotation(), before + Eigen::Vector3d(0.02, 0.0, 0.0));
   const Eigen::Vector3d moved = s.map.vertex(v).T_M_I.translation();
   o = Estimating();
   o.ba_noise_scale_tolerance = 1e-9;  // never converged: a second solve follows

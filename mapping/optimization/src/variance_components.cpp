@@ -3,7 +3,6 @@
 
 #include <Eigen/Sparse>
 #include <Eigen/SparseCholesky>
-
 #include <algorithm>
 #include <cmath>
 #include <random>
@@ -22,7 +21,8 @@ NoiseFactors EstimateVarianceComponents(ceres::Problem* problem,
   std::size_t visual_rows = 0;
   for (ceres::ResidualBlockId id : visual) {
     evaluate.residual_blocks.push_back(id);
-    visual_rows += static_cast<std::size_t>(problem->GetCostFunctionForResidualBlock(id)->num_residuals());
+    visual_rows +=
+        static_cast<std::size_t>(problem->GetCostFunctionForResidualBlock(id)->num_residuals());
   }
   if (evaluate.residual_blocks.empty()) return out;
   // Raw whitened residuals; the robust loss enters as each observation's IRLS weight ρ'(s) on
@@ -72,7 +72,8 @@ NoiseFactors EstimateVarianceComponents(ceres::Problem* problem,
     for (int k = crs.rows[r]; k < crs.rows[r + 1]; ++k) {
       const int c = column[static_cast<std::size_t>(crs.cols[k])];
       if (c >= 0 && crs.values[k] != 0.0) {
-        triplets.emplace_back(r, c, std::sqrt(row_weight[static_cast<std::size_t>(r)]) * crs.values[k]);
+        triplets.emplace_back(r, c,
+                              std::sqrt(row_weight[static_cast<std::size_t>(r)]) * crs.values[k]);
       }
     }
   }
@@ -125,7 +126,8 @@ NoiseFactors EstimateVarianceComponents(ceres::Problem* problem,
   // variances (1 - h_ii) sigma²).
   if (visual_rows > 0) {
     std::vector<double> magnitude(visual_rows);
-    for (std::size_t i = 0; i < visual_rows; ++i) magnitude[i] = std::abs(residuals[inertial_rows + i]);
+    for (std::size_t i = 0; i < visual_rows; ++i)
+      magnitude[i] = std::abs(residuals[inertial_rows + i]);
     std::vector<double> sorted = magnitude;
     auto middle = sorted.begin() + static_cast<long>(visual_rows / 2);
     std::nth_element(sorted.begin(), middle, sorted.end());

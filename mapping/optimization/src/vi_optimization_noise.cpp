@@ -7,9 +7,9 @@
 #include <stdexcept>
 #include <unordered_map>
 
+#include "vi_problem_util.h"
 #include "vilma/mapping/landmarks/landmark_quality.h"
 #include "vilma/mapping/optimization/vi_optimization.h"
-#include "vi_problem_util.h"
 
 namespace vilma::mapping {
 
