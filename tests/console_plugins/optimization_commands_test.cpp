@@ -63,5 +63,29 @@ TEST_CASE("optv and the optimization flags, bad values change nothing") {
   REQUIRE(f.Run("cmc").ok());
 }
 
+TEST_CASE("optvi --ba_estimate_noise_scales reports the scales of each solve") {
+  const auto& maps = test::TestMaps();
+  Fixture f;
+  REQUIRE(f.Run("load " + maps.session0_map).ok());
+  const auto v = f.map().VertexChain(f.map().mission_ids()[0])[60];
+  const Eigen::Vector3d p = f.map().vertex(v).T_M_I.translation();
+  CommandResult r = f.Run("optvi --ba_estimate_noise_scales --ba_noise_scale_max=0.5");
+  CHECK(r.outcome == CommandOutcome::kFailed);
+  CHECK_THAT(r.message, Catch::Contains("ba_noise_scale_max"));
+  r = f.Run("optv --ba_estimate_noise_scales");
+  CHECK(r.outcome == CommandOutcome::kFailed);
+  CHECK_THAT(r.message, Catch::Contains("ba_estimate_noise_scales"));
+  r = f.Run("optvi --ba_accel_noise_scale=0");
+  CHECK(r.outcome == CommandOutcome::kFailed);
+  CHECK(f.map().vertex(v).T_M_I.translation() == p);
+  REQUIRE(f.Run("optvi --ba_estimate_noise_scales --ba_noise_scale_rounds=2 --ba_num_iterations=6")
+              .ok());
+  CHECK_THAT(f.out.str(), Catch::Contains("noise scales, solve 1: visual 1 gyro_noise 1") &&
+                              Catch::Contains("noise scales, solve 2:") &&
+                              Catch::Contains("variance factors (chi2 / redundancy): visual"));
+  CHECK(f.map().vertex(v).T_M_I.translation() != p);
+  REQUIRE(f.Run("cmc").ok());
+}
+
 }  // namespace
 }  // namespace vilma::console
