@@ -20,6 +20,7 @@ template <typename Visitor, typename Options>
 void VisitOptions(Options& o, Visitor&& v) {
   v("", "estimate_extrinsics", o.estimate_extrinsics);
   v("", "estimate_time_offset", o.estimate_time_offset);
+  v("", "yaw_observability_constraint", o.yaw_observability_constraint);
   v("init", "window_s", o.init.window_s);
   v("init", "max_static_accel_std", o.init.max_static_accel_std);
   v("init", "max_static_gyro_std", o.init.max_static_gyro_std);

@@ -21,9 +21,16 @@ void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, d
   const Matrix3d R_M_I = x->q_M_I.toRotationMatrix();
   const Matrix3d R_C_I = x->q_I_C.toRotationMatrix().transpose();
   const Vector3d v_I = R_M_I.transpose() * x->v_M;
-  const Vector3d a_M = R_M_I * a_I + g_M;
   const Vector3d phi = omega_I * dt;
   const Matrix3d R_step = ExpSO3(phi).toRotationMatrix();
+  // The specific force (measured at the interval's midpoint) is rotated into M with the
+  // attitude at the midpoint, R_M_I Exp(phi / 2): with the attitude at the start the
+  // acceleration lags by dt / 2 of rotation, |omega x a| dt / 2 (a few mm/s^2 while the body
+  // pitches or rolls under gravity, as large as the accelerometer's white noise over 1 s;
+  // tests/estimator/propagation_consistency_sim_test.cpp).
+  const Matrix3d R_half = ExpSO3(0.5 * phi).toRotationMatrix();
+  const Vector3d a_half = R_half * a_I;  // the specific force in the midpoint frame's axes
+  const Vector3d a_M = R_M_I * a_half + g_M;
 
   // Camera velocities in C (see the header).
   const Vector3d omega_C = R_C_I * omega_I;
@@ -35,12 +42,18 @@ void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, d
     // Core block: p' = p + v dt + a_M dt^2 / 2, v' = v + a_M dt, q' = q Exp(omega dt).
     auto& F = J->F_core;
     F.setIdentity();
-    const Matrix3d R_skew_a = R_M_I * Skew(a_I);
+    // d a_M / d theta = -R [R_half a_I]x; d a_M / d b_a = -R R_half;
+    // d a_M / d b_g = R (d Exp(phi/2) a_I / d phi) (-dt) = R R_half [a_I]x Jr(phi/2) dt / 2.
+    const Matrix3d R_skew_a = R_M_I * Skew(a_half);
+    const Matrix3d da_dba = -R_M_I * R_half;
+    const Matrix3d da_dbg = 0.5 * dt * R_M_I * R_half * Skew(a_I) * RightJacobianSO3(0.5 * phi);
     F.block<3, 3>(kIdxP, kIdxV) = Matrix3d::Identity() * dt;
     F.block<3, 3>(kIdxP, kIdxQ) = -0.5 * dt * dt * R_skew_a;
-    F.block<3, 3>(kIdxP, kIdxBa) = -0.5 * dt * dt * R_M_I;
+    F.block<3, 3>(kIdxP, kIdxBg) = 0.5 * dt * dt * da_dbg;
+    F.block<3, 3>(kIdxP, kIdxBa) = 0.5 * dt * dt * da_dba;
     F.block<3, 3>(kIdxV, kIdxQ) = -dt * R_skew_a;
-    F.block<3, 3>(kIdxV, kIdxBa) = -dt * R_M_I;
+    F.block<3, 3>(kIdxV, kIdxBg) = dt * da_dbg;
+    F.block<3, 3>(kIdxV, kIdxBa) = dt * da_dba;
     F.block<3, 3>(kIdxQ, kIdxQ) = R_step.transpose();
     F.block<3, 3>(kIdxQ, kIdxBg) = -RightJacobianSO3(phi) * dt;
 
@@ -98,6 +111,32 @@ void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, d
   x->v_M += a_M * dt;
   x->q_M_I = (x->q_M_I * ExpSO3(phi)).normalized();
   x->t_ns += static_cast<int64_t>(std::llround(dt * 1e9));
+}
+
+void ConstrainYawNullspace(const Eigen::Vector3d& p_anchor, const Eigen::Vector3d& v_anchor,
+                           const Eigen::Quaterniond& q_anchor, const FilterState& x_next,
+                           PropagationJacobians* J) {
+  using Eigen::Vector3d;
+  using CoreVector = Eigen::Matrix<double, kCoreDim, 1>;
+  const Vector3d e_z = Vector3d::UnitZ();
+  CoreVector u = CoreVector::Zero();  // N(anchor), core part (its feature part is zero)
+  u.segment<3>(kIdxP) = e_z.cross(p_anchor);
+  u.segment<3>(kIdxV) = e_z.cross(v_anchor);
+  u.segment<3>(kIdxQ) = q_anchor.conjugate() * e_z;
+  CoreVector w = CoreVector::Zero();  // N(x_next)
+  w.segment<3>(kIdxP) = e_z.cross(x_next.p_M_I);
+  w.segment<3>(kIdxV) = e_z.cross(x_next.v_M);
+  w.segment<3>(kIdxQ) = x_next.q_M_I.conjugate() * e_z;
+  const Vector3d u_theta = u.segment<3>(kIdxQ);  // a unit vector
+  // Rank-one change of the attitude columns, A* = A + (w - F u) u_theta^T: the smallest change
+  // (Frobenius norm) of A that gives F* u = w (the OC-EKF's constrained least squares).
+  const CoreVector r = w - J->F_core * u;
+  J->F_core.middleCols<3>(kIdxQ) += r * u_theta.transpose();
+  for (auto& Fc : J->F_feature_core) {
+    // Required: F_feature_core N(anchor) = 0 (inactive slots have Fc = 0: no change).
+    const Eigen::Matrix<double, kFeatureDim, 1> rf = -(Fc * u);
+    Fc.middleCols<3>(kIdxQ) += rf * u_theta.transpose();
+  }
 }
 
 void PropagateCovariance(const PropagationJacobians& J, const PropagationNoise& noise, double dt,

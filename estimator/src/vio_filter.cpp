@@ -128,6 +128,12 @@ void VioFilter::Propagate(int64_t t_target) {
     last_omega_m_ = omega;
     const double dt = static_cast<double>(t1 - t0) * 1e-9;
     PropagateMean(omega, a, dt, rig_.imu.gravity_magnitude, &x_, &jacobians_);
+    if (options_.yaw_observability_constraint) {
+      ConstrainYawNullspace(yaw_anchor_p_, yaw_anchor_v_, yaw_anchor_q_, x_, &jacobians_);
+      yaw_anchor_p_ = x_.p_M_I;
+      yaw_anchor_v_ = x_.v_M;
+      yaw_anchor_q_ = x_.q_M_I;
+    }
     for (std::size_t i = 0; i < x_.features.size(); ++i) {
       if (x_.features[i].active) {
         tracks_[i].A = jacobians_.F_feature_self[i].topLeftCorner<2, 2>() * tracks_[i].A;

@@ -77,6 +77,9 @@ void VioFilter::Start(int64_t t_ns, const Eigen::Quaterniond& q_M_I, const Eigen
   if (options_.estimate_time_offset) {
     P_(kIdxTd, kIdxTd) = o.sigma_time_offset * o.sigma_time_offset;
   }
+  yaw_anchor_p_ = x_.p_M_I;
+  yaw_anchor_v_ = x_.v_M;
+  yaw_anchor_q_ = x_.q_M_I;
   frames_without_updates_ = 0;
   initialized_ = true;
   initializer_.Reset();

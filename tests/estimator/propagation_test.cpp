@@ -142,6 +142,70 @@ TEST_CASE("structured covariance propagation equals F P F^T + G Q G^T") {
   VILMA_CHECK_MATRIX_NEAR(P, expected, 1e-12);
 }
 
+// The yaw null vector N(x) = [e_z x p, e_z x v_M, R_M_I^T e_z, 0, ...] (propagation.h,
+// ConstrainYawNullspace) as a full error-state vector.
+Eigen::VectorXd YawNullVector(const FilterState& x) {
+  Eigen::VectorXd N = Eigen::VectorXd::Zero(x.dim());
+  const Eigen::Vector3d e_z = Eigen::Vector3d::UnitZ();
+  N.segment<3>(kIdxP) = e_z.cross(x.p_M_I);
+  N.segment<3>(kIdxV) = e_z.cross(x.v_M);
+  N.segment<3>(kIdxQ) = x.q_M_I.conjugate() * e_z;
+  return N;
+}
+
+TEST_CASE("one propagation step maps the yaw null vector onto the next state's") {
+  // Turning the scene about the vertical is unobservable: F(x) N(x) = N(x') exactly, at any
+  // state (features included: they do not see the turn).
+  std::mt19937 rng(13);
+  for (int trial = 0; trial < 5; ++trial) {
+    const FilterState x0 = RandomState(&rng, 3);
+    PropagationJacobians J;
+    J.Resize(3);
+    FilterState x1 = x0;
+    PropagateMean(Eigen::Vector3d(0.3, -0.5, 0.8), Eigen::Vector3d(0.4, 9.5, -1.2), 0.005, 9.81,
+                  &x1, &J);
+    Eigen::VectorXd FN = DenseF(J, x0) * YawNullVector(x0);
+    FN.segment<3>(FeatureIndex(1)).setZero();  // inactive slot (identity rows in DenseF)
+    VILMA_CHECK_MATRIX_NEAR(FN, YawNullVector(x1), 1e-12);
+  }
+}
+
+TEST_CASE("the yaw constraint maps the anchor's null vector onto the next state's") {
+  std::mt19937 rng(17);
+  for (int trial = 0; trial < 5; ++trial) {
+    const FilterState x0 = RandomState(&rng, 3);
+    PropagationJacobians J;
+    J.Resize(3);
+    FilterState x1 = x0;
+    PropagateMean(Eigen::Vector3d(0.3, -0.5, 0.8), Eigen::Vector3d(0.4, 9.5, -1.2), 0.005, 9.81,
+                  &x1, &J);
+    const PropagationJacobians J_plain = J;
+    SECTION("anchor = the step's start: F is unchanged") {
+      ConstrainYawNullspace(x0.p_M_I, x0.v_M, x0.q_M_I, x1, &J);
+      VILMA_CHECK_MATRIX_NEAR(DenseF(J, x0), DenseF(J_plain, x0), 1e-12);
+    }
+    SECTION("anchor = the state before an update: F N(anchor) = N(x')") {
+      // The update moved position, velocity and attitude (tilt and yaw) away from the anchor.
+      FilterState anchor = x0;
+      anchor.p_M_I += Eigen::Vector3d(0.02, 0.01, -0.01);
+      anchor.v_M += Eigen::Vector3d(0.03, -0.02, 0.01);
+      anchor.q_M_I = anchor.q_M_I * ExpSO3(Eigen::Vector3d(0.01, -0.02, 0.015));
+      ConstrainYawNullspace(anchor.p_M_I, anchor.v_M, anchor.q_M_I, x1, &J);
+      const Eigen::MatrixXd F = DenseF(J, x0), F_plain = DenseF(J_plain, x0);
+      Eigen::VectorXd FN = F * YawNullVector(anchor);
+      Eigen::VectorXd expected = YawNullVector(x1);
+      FN.segment<3>(FeatureIndex(1)).setZero();
+      VILMA_CHECK_MATRIX_NEAR(FN, expected, 1e-12);
+      // Without the constraint the feature rows see the turn (the spurious information).
+      CHECK((F_plain * YawNullVector(anchor)).segment<3>(FeatureIndex(0)).norm() > 1e-6);
+      // Only the attitude columns change.
+      Eigen::MatrixXd D = F - F_plain;
+      D.middleCols<3>(kIdxQ).setZero();
+      CHECK(D.norm() == 0.0);
+    }
+  }
+}
+
 TEST_CASE("a static point stays consistent with the propagated camera pose") {
   // Propagate 200 small steps with constant body rates and compare the feature with the
   // point re-projected from the propagated pose (the Euler steps converge to the truth).

@@ -13,7 +13,9 @@
 // Errors (truth - estimate): position and velocity in M; attitude dtheta = Log(q_est^-1 q_true)
 // (the filter's right perturbation q = q_est Exp(dtheta)), split into yaw (about M's z) and
 // roll/pitch (M's x, y) through R_M_I dtheta; biases in the IMU frame. NEES of a block: e^T P^-1 e
-// with the block of the filter's covariance (3 for a consistent 3-DoF block on average).
+// with the block of the filter's covariance (3 for a consistent 3-DoF block on average). The CSV's
+// yaw_info (session 35) is the filter's information about the unobservable turn about the
+// vertical, N^T P^-1 N; it must never rise from frame to frame.
 //
 // Environment: VILMA_DIAG_CONFIG a filter options YAML (default: the built-in profile
 // "default", which `vilma vio` uses on the simulated sets; stereo.enabled is set per run);
@@ -98,6 +100,12 @@ struct FrameError {
   double nees_p = 0, nees_v = 0, nees_q = 0, nees_bg = 0, nees_ba = 0;
   double sigma_yaw_deg = 0.0;   // the filter's yaw std [deg]
   double sigma_ba = 0.0, sigma_bg = 0.0;  // sqrt(trace) of the bias blocks
+  // The filter's information about turning the scene about the vertical (session 35): with the
+  // yaw null vector N = [e_z x p, e_z x v_M, R_M_I^T e_z, 0, ...] (propagation.h), N^T P^-1 N
+  // over the states with covariance (p, v, theta, biases, active features) [1/rad^2]. Nothing
+  // the filter measures observes N: in a consistent filter it only falls (process noise); a
+  // rise between frames is information the data do not hold.
+  double yaw_info = 0.0;
   int features = 0, updated = 0, stereo_updated = 0;
 };
 
@@ -172,6 +180,26 @@ std::vector<FrameError> RunAgainstTruth(const std::filesystem::path& dir, bool s
     e.sigma_yaw_deg = std::sqrt(std::max(0.0, P_q_M(2, 2))) * kRadToDeg;
     e.sigma_ba = std::sqrt(P.block<3, 3>(kIdxBa, kIdxBa).trace());
     e.sigma_bg = std::sqrt(P.block<3, 3>(kIdxBg, kIdxBg).trace());
+    {
+      std::vector<int> idx;
+      for (int i = 0; i < kIdxQIC; ++i) idx.push_back(i);
+      for (int slot = 0; slot < static_cast<int>(x.features.size()); ++slot) {
+        if (!x.features[static_cast<std::size_t>(slot)].active) continue;
+        for (int j = 0; j < kFeatureDim; ++j) idx.push_back(FeatureIndex(slot) + j);
+      }
+      const int n = static_cast<int>(idx.size());
+      Eigen::MatrixXd Pa(n, n);
+      for (int r = 0; r < n; ++r) {
+        for (int c = 0; c < n; ++c) Pa(r, c) = P(idx[r], idx[c]);
+      }
+      Eigen::VectorXd N = Eigen::VectorXd::Zero(n);
+      const Eigen::Vector3d e_z = Eigen::Vector3d::UnitZ();
+      N.segment<3>(kIdxP) = e_z.cross(x.p_M_I);
+      N.segment<3>(kIdxV) = e_z.cross(x.v_M);
+      N.segment<3>(kIdxQ) = x.q_M_I.conjugate() * e_z;
+      const Eigen::LDLT<Eigen::MatrixXd> ldlt(Pa);
+      e.yaw_info = N.dot(ldlt.solve(N));
+    }
     e.features = o.filter.num_features;
     e.updated = o.filter.num_updated;
     e.stereo_updated = o.filter.num_stereo_updated;
@@ -193,7 +221,7 @@ void WriteCsv(const std::filesystem::path& path, const std::vector<FrameError>& 
   std::ofstream f(path);
   f << "t_s,dp_x,dp_y,dp_z,dv_x,dv_y,dv_z,speed_true,dv_along,path_true,path_est,yaw_deg,tilt_deg,"
        "dbg_x,dbg_y,dbg_z,dba_x,dba_y,dba_z,nees_p,nees_v,nees_q,nees_bg,nees_ba,sigma_yaw_deg,"
-       "sigma_ba,sigma_bg,features,updated,stereo_updated,dbg_Mz\n";
+       "sigma_ba,sigma_bg,features,updated,stereo_updated,dbg_Mz,yaw_info\n";
   for (const FrameError& e : errors) {
     f << e.t_s << "," << e.dp.x() << "," << e.dp.y() << "," << e.dp.z() << "," << e.dv.x() << ","
       << e.dv.y() << "," << e.dv.z() << "," << e.speed_true << "," << e.dv_along << ","
@@ -202,7 +230,7 @@ void WriteCsv(const std::filesystem::path& path, const std::vector<FrameError>& 
       << e.dba.y() << "," << e.dba.z() << "," << e.nees_p << "," << e.nees_v << "," << e.nees_q
       << "," << e.nees_bg << "," << e.nees_ba << "," << e.sigma_yaw_deg << "," << e.sigma_ba << ","
       << e.sigma_bg << "," << e.features << "," << e.updated << "," << e.stereo_updated << ","
-      << e.dbg_Mz << "\n";
+      << e.dbg_Mz << "," << e.yaw_info << "\n";
   }
 }
 

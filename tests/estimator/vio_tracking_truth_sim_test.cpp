@@ -11,7 +11,9 @@
 //
 // Per-observation CSV (VILMA_DIAG_OUT, default ~/.cache/vilma/diag): t_s, feature id, frames
 // since detection, true and filter pixel, true distance, the filter's inverse distance, whether
-// the point is visible (not occluded) in the current true view. Summary printed per age bucket.
+// the point is visible (not occluded) in the current true view, and the NEES of the feature's
+// pixel (2 DoF, its bearing covariance through the camera) and inverse distance (1 DoF) against
+// the truth (session 35). Summary printed per age bucket.
 // Environment as in vio_consistency_sim_test.cpp: VILMA_DIAG_SETS, VILMA_DIAG_MODES,
 // VILMA_DIAG_CONFIG, VILMA_DIAG_DATASETS.
 //
@@ -89,6 +91,10 @@ struct Observation {
   Eigen::Vector2d px_true, px_est;
   double distance_true = 0.0, rho_est = 0.0;
   bool visible = false;
+  // The filter's own uncertainty of the feature (session 35): NEES of the pixel (2 DoF; the
+  // bearing covariance through the camera model, J_pi B P_mu B^T J_pi^T) and of the inverse
+  // distance (1 DoF) against the truth.
+  double nees_px = 0.0, nees_rho = 0.0;
 };
 
 struct Landmark {
@@ -146,6 +152,19 @@ std::vector<Observation> TrackAgainstTruth(const std::filesystem::path& dir, boo
       ob.px_est = px_est;
       ob.distance_true = p_C.norm();
       ob.rho_est = f.rho;
+      {
+        const Eigen::MatrixXd& P = filter.covariance();
+        const int k = FeatureIndex(slot);
+        Eigen::Vector2d px_unused;
+        Eigen::Matrix<double, 2, 3> J_px;
+        cam.Project(f.mu_C, &px_unused, &J_px);
+        const Eigen::Matrix<double, 2, 2> J = J_px * BearingBasis(f.mu_C);
+        const Eigen::Matrix2d S = J * P.block<2, 2>(k, k) * J.transpose();
+        const Eigen::Vector2d d = ob.px_est - ob.px_true;
+        ob.nees_px = d.dot(S.ldlt().solve(d));
+        const double drho = f.rho - 1.0 / ob.distance_true;
+        ob.nees_rho = drho * drho / P(k + 2, k + 2);
+      }
       const double d = simulator.world().RayCast(
           T_W_C.translation(), (it->second.p_W - T_W_C.translation()).normalized());
       ob.visible = std::abs(d - ob.distance_true) < 0.01 * ob.distance_true + 0.01;
@@ -172,11 +191,12 @@ double Median(std::vector<double> v) {
 }
 
 void Summarize(const std::string& title, const std::vector<Observation>& obs) {
-  std::printf("%s\n%10s %7s %9s %9s %9s %9s %9s\n", title.c_str(), "age", "n", "mean dx", "mean dy",
-              "med dx", "med dy", "med |d|");
+  std::printf("%s\n%10s %7s %9s %9s %9s %9s %9s %9s %9s %9s %9s\n", title.c_str(), "age", "n",
+              "mean dx", "mean dy", "med dx", "med dy", "med |d|", "NEESpx", "medNEESpx", "NEESrho",
+              "medNEESrho");
   const int edges[] = {1, 2, 5, 10, 20, 40, 80, 160, 100000};
   for (int b = 0; b + 1 < static_cast<int>(std::size(edges)); ++b) {
-    std::vector<double> dx, dy, dn;
+    std::vector<double> dx, dy, dn, npx, nrho;
     for (const Observation& o : obs) {
       if (!o.visible || o.age < edges[b] || o.age >= edges[b + 1]) continue;
       const Eigen::Vector2d d = o.px_est - o.px_true;
@@ -184,25 +204,33 @@ void Summarize(const std::string& title, const std::vector<Observation>& obs) {
       dx.push_back(d.x());
       dy.push_back(d.y());
       dn.push_back(d.norm());
+      npx.push_back(o.nees_px);
+      nrho.push_back(o.nees_rho);
     }
+    auto mean_of = [](const std::vector<double>& v) {
+      double m = 0;
+      for (double a : v) m += a;
+      return v.empty() ? 0.0 : m / static_cast<double>(v.size());
+    };
     double mx = 0, my = 0;
     for (std::size_t i = 0; i < dx.size(); ++i) {
       mx += dx[i];
       my += dy[i];
     }
     const double n = static_cast<double>(std::max<std::size_t>(1, dx.size()));
-    std::printf("%4d-%-5d %7zu %+9.3f %+9.3f %+9.3f %+9.3f %9.3f\n", edges[b], edges[b + 1] - 1,
-                dx.size(), mx / n, my / n, Median(dx), Median(dy), Median(dn));
+    std::printf("%4d-%-5d %7zu %+9.3f %+9.3f %+9.3f %+9.3f %9.3f %9.2f %9.2f %9.2f %9.2f\n",
+                edges[b], edges[b + 1] - 1, dx.size(), mx / n, my / n, Median(dx), Median(dy),
+                Median(dn), mean_of(npx), Median(npx), mean_of(nrho), Median(nrho));
   }
 }
 
 void WriteCsv(const std::filesystem::path& path, const std::vector<Observation>& obs) {
   std::ofstream f(path);
-  f << "t_s,id,age,u_true,v_true,u_est,v_est,distance_true,rho_est,visible\n";
+  f << "t_s,id,age,u_true,v_true,u_est,v_est,distance_true,rho_est,visible,nees_px,nees_rho\n";
   for (const Observation& o : obs) {
     f << o.t_s << "," << o.id << "," << o.age << "," << o.px_true.x() << "," << o.px_true.y() << ","
       << o.px_est.x() << "," << o.px_est.y() << "," << o.distance_true << "," << o.rho_est << ","
-      << (o.visible ? 1 : 0) << "\n";
+      << (o.visible ? 1 : 0) << "," << o.nees_px << "," << o.nees_rho << "\n";
   }
 }
 

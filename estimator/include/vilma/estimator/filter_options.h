@@ -147,6 +147,10 @@ struct StereoOptions {
 struct FilterOptions {
   bool estimate_extrinsics = false;  // refine T_I_C online (else it is fixed from the rig)
   bool estimate_time_offset = false;  // refine the camera-IMU time offset online
+  // Observability-constrained propagation of the yaw direction (OC-EKF, propagation.h
+  // ConstrainYawNullspace; docs/estimator.md "Stereo and noisy IMUs", session 35): the updates
+  // cannot gain information about yaw, which the data do not observe.
+  bool yaw_observability_constraint = false;
   InitOptions init;
   ProcessNoiseOptions noise;
   UpdateOptions update;

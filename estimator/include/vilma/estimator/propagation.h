@@ -13,6 +13,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <vector>
 
 #include "vilma/estimator/filter_state.h"
@@ -42,11 +43,39 @@ struct PropagationNoise {
   double time_offset = 0.0;              // [s/sqrt(s)], 0 when td is fixed
 };
 
-// One Euler step of the mean over dt [s] with the IMU measurement (omega_m [rad/s], a_m
-// [m/s^2]) at the start of the interval; gravity g_M = (0, 0, -gravity). Writes the Jacobians
+// One step of the mean over dt [s] with the IMU measurement (omega_m [rad/s], a_m [m/s^2])
+// held over the interval (VioFilter passes the measurement interpolated at its midpoint):
+// q' = q Exp(omega_I dt), and the specific force is rotated into M with the midpoint attitude,
+// a_M = R_M_I Exp(omega_I dt / 2) a_I + g_M (session 35; the start attitude lagged by dt / 2),
+// v' = v + a_M dt, p' = p + v dt + a_M dt^2 / 2; gravity g_M = (0, 0, -gravity). Writes the Jacobians
 // if J is not null (J must have been resized to the slot count). Allocation-free.
 void PropagateMean(const Eigen::Vector3d& omega_m, const Eigen::Vector3d& a_m, double dt,
                    double gravity, FilterState* x, PropagationJacobians* J);
+
+// Observability-constrained propagation of the yaw direction (OC-EKF: J. A. Hesch, D. G.
+// Kottas, S. L. Bowman, S. I. Roumeliotis, "Consistency analysis and improvement of vision-aided
+// inertial navigation", IEEE T-RO 30(1), 2014, sec. V; the first-estimate idea of G. P. Huang,
+// A. I. Mourikis, S. I. Roumeliotis, "A first-estimates Jacobian EKF for improving SLAM
+// consistency", ISER 2008). Turning the whole scene about M's vertical changes nothing the
+// filter measures. Its error-state direction at a state x is the yaw null vector
+//   N(x) = [dp = e_z x p, dv = e_z x v_M, dtheta = R_M_I^T e_z, 0 (biases, extrinsics, td,
+//           features)],
+// every measurement has H N = 0 (it depends on features and td only), and one step's F(x)
+// maps N(x) onto N(x') exactly (x' the propagated mean; tested). But after an update the next
+// step's F is evaluated at the corrected state x+ while the covariance carries the direction
+// of the state before the update, x-: F(x+) N(x-) != N(x'), and the filter can gain
+// information about yaw (and through it the gyro bias about the vertical) that the data do not
+// hold. (Measured in session 35: the default filter gains none on the simulated street, and
+// this option changes the ATE by <= 2 %; it is off by default.)
+// ConstrainYawNullspace changes F's attitude columns by a rank-one term so that
+// F N(anchor) = N(x') in every row, where the anchor is the state from which the covariance's
+// null direction was propagated (the state before the update on the first step after a frame;
+// on every other step the anchor is the step's own start and the change is zero to rounding).
+// `p_anchor`, `v_anchor`, `q_anchor`: position, velocity and attitude of the anchor state;
+// `x_next`: the mean after PropagateMean; J: that step's Jacobians (modified in place).
+void ConstrainYawNullspace(const Eigen::Vector3d& p_anchor, const Eigen::Vector3d& v_anchor,
+                           const Eigen::Quaterniond& q_anchor, const FilterState& x_next,
+                           PropagationJacobians* J);
 
 // Scratch for PropagateCovariance (sized on first use, then reused).
 struct PropagationWorkspace {

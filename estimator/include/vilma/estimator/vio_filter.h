@@ -207,6 +207,11 @@ class VioFilter {
   Eigen::VectorXd residual2_;                         // stereo: the joint update's C2 residual
   Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel2_;
   Eigen::Vector3d last_omega_m_ = Eigen::Vector3d::Zero();  // last gyro measurement [rad/s]
+  // yaw_observability_constraint: position, velocity and attitude of the state from which the
+  // covariance's yaw null direction was propagated (the state before the last update).
+  Eigen::Vector3d yaw_anchor_p_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d yaw_anchor_v_ = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond yaw_anchor_q_ = Eigen::Quaterniond::Identity();
   Eigen::VectorXd residual_;
   Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel_;
   std::vector<Eigen::Vector2d> occupied_;
