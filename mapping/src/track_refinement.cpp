@@ -309,12 +309,13 @@ PatchAlignment AlignPatchTemplate(const PatchTemplate& patch, const GradientImag
   PatchAlignment out;
   out.center = c0;
   out.warp = affine ? A0 : Eigen::Matrix2d::Identity();
+  if (!patch.prepared) {
+    throw std::logic_error(
+        "AlignPatchTemplate: the template is not prepared (PatchTemplate::Prepare)");
+  }
   if (!(affine ? patch.affine_ok : patch.translation_ok)) {
     out.status = PatchAlignment::Status::kSingular;
     return out;
-  }
-  if (!patch.prepared) {
-    throw std::logic_error("AlignPatchTemplate: the template is not prepared (PatchTemplate::Prepare)");
   }
   const cv::Mat& m = image.intensity;
   const float* sd = patch.steepest_descent.data();
@@ -444,9 +445,9 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
         if (!forward_additive && !track.patch.prepared) track.patch.Prepare();
         const Eigen::Vector2d c0 = track.aligned_uv + (detected - track.detected_uv);
         PatchAlignment a =
-            forward_additive
-                ? AlignPatchTemplateForwardAdditive(track.patch, gradients, c0, track.warp, options_)
-                : AlignPatchTemplate(track.patch, gradients, c0, track.warp, options_);
+            forward_additive ? AlignPatchTemplateForwardAdditive(track.patch, gradients, c0,
+                                                                 track.warp, options_)
+                             : AlignPatchTemplate(track.patch, gradients, c0, track.warp, options_);
         if (a.ok() && options_.max_offset_px > 0.0 &&
             (a.center - detected).norm() > options_.max_offset_px) {
           a.status = PatchAlignment::Status::kOffset;

@@ -22,12 +22,12 @@
 #include <string>
 #include <vector>
 
+#include "test_skip.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/rig.h"
 #include "vilma/localizer/feature_tracker.h"
 #include "vilma/mapping/map_builder_options.h"
 #include "vilma/mapping/track_refinement.h"
-#include "test_skip.h"
 
 using namespace vilma;
 using namespace vilma::mapping;
@@ -48,7 +48,9 @@ double ThreadCpuSeconds() {
 
 double Median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  return v.empty()      ? 0.0
+         : v.size() % 2 ? v[v.size() / 2]
+                        : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 double Quantile(std::vector<double> v, double q) {
@@ -151,8 +153,10 @@ TEST_CASE("track refinement benchmark: inverse compositional against forward add
     const double n = static_cast<double>(keyframes.size());
     ms_fa.push_back(1e3 * fa.cpu_s / n);
     ms_ic.push_back(1e3 * ic.cpu_s / n);
-    std::printf("repeat %d: forward additive %.2f ms/keyframe, inverse compositional %.2f "
-                "ms/keyframe (CPU time of Refine)\n", r + 1, ms_fa.back(), ms_ic.back());
+    std::printf(
+        "repeat %d: forward additive %.2f ms/keyframe, inverse compositional %.2f "
+        "ms/keyframe (CPU time of Refine)\n",
+        r + 1, ms_fa.back(), ms_ic.back());
     if (r == 0) {
       first_fa = std::move(fa);
       first_ic = std::move(ic);
@@ -190,23 +194,25 @@ TEST_CASE("track refinement benchmark: inverse compositional against forward add
     std::printf("), mean |aligned - detected| %.3f px\n",
                 s.refined > 0 ? s.shift_sum_px / static_cast<double>(s.refined) : 0.0);
   };
-  std::printf("\n%s, method %s, max_error_grey %g: %zu keyframes, %zu keypoints (%.0f per "
-              "keyframe), %d repeats\n",
-              set.filename().c_str(), options.method.c_str(), options.max_error_grey,
-              keyframes.size(), keypoints,
-              static_cast<double>(keypoints) / static_cast<double>(keyframes.size()), repeat);
-  std::printf("CPU ms per camera keyframe, median (min..max): forward additive %.2f (%.2f..%.2f), "
-              "inverse compositional %.2f (%.2f..%.2f); ratio %.3f\n",
-              Median(ms_fa), *std::min_element(ms_fa.begin(), ms_fa.end()),
-              *std::max_element(ms_fa.begin(), ms_fa.end()), Median(ms_ic),
-              *std::min_element(ms_ic.begin(), ms_ic.end()),
-              *std::max_element(ms_ic.begin(), ms_ic.end()), Median(ms_ic) / Median(ms_fa));
+  std::printf(
+      "\n%s, method %s, max_error_grey %g: %zu keyframes, %zu keypoints (%.0f per "
+      "keyframe), %d repeats\n",
+      set.filename().c_str(), options.method.c_str(), options.max_error_grey, keyframes.size(),
+      keypoints, static_cast<double>(keypoints) / static_cast<double>(keyframes.size()), repeat);
+  std::printf(
+      "CPU ms per camera keyframe, median (min..max): forward additive %.2f (%.2f..%.2f), "
+      "inverse compositional %.2f (%.2f..%.2f); ratio %.3f\n",
+      Median(ms_fa), *std::min_element(ms_fa.begin(), ms_fa.end()),
+      *std::max_element(ms_fa.begin(), ms_fa.end()), Median(ms_ic),
+      *std::min_element(ms_ic.begin(), ms_ic.end()), *std::max_element(ms_ic.begin(), ms_ic.end()),
+      Median(ms_ic) / Median(ms_fa));
   report("forward additive", first_fa.stats);
   report("inverse compositional", first_ic.stats);
-  std::printf("refined by both %zu, by forward additive only %zu, by inverse compositional only "
-              "%zu; |difference| where both under the same track id (%zu): median %.4f, p90 %.4f, "
-              "p99 %.4f, max %.4f px\n",
-              both, only_fa, only_ic, diff.size(), Median(diff), Quantile(diff, 0.9), Quantile(diff, 0.99),
-              diff.empty() ? 0.0 : *std::max_element(diff.begin(), diff.end()));
+  std::printf(
+      "refined by both %zu, by forward additive only %zu, by inverse compositional only "
+      "%zu; |difference| where both under the same track id (%zu): median %.4f, p90 %.4f, "
+      "p99 %.4f, max %.4f px\n",
+      both, only_fa, only_ic, diff.size(), Median(diff), Quantile(diff, 0.9), Quantile(diff, 0.99),
+      diff.empty() ? 0.0 : *std::max_element(diff.begin(), diff.end()));
   CHECK(both > 0);
 }
