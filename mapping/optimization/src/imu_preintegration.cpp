@@ -64,14 +64,8 @@ void ImuPreintegration::Integrate() {
   dp_dba_.setZero();
   dt_s_ = 0.0;
   for (std::size_t k = 0; k + 1 < samples_.size(); ++k) {
-    const double dt = 1e-9 * static_cast<double>(samples_[k + 1].t_ns - samples_[k].t_ns);
-    const Eigen::Vector3d w = 0.5 * (samples_[k].omega_I + samples_[k + 1].omega_I) - gyro_bias_;
-    const Eigen::Vector3d a = 0.5 * (samples_[k].a_I + samples_[k + 1].a_I) - accel_bias_;
+    const auto [dt, w, a, phi, a_skew, dR, Jr] = IntervalAt(k);
     const Eigen::Matrix3d R = delta_R_.toRotationMatrix();  // ΔR_k
-    const Eigen::Matrix3d a_skew = Skew(a);
-    const Eigen::Vector3d phi = w * dt;
-    const Eigen::Matrix3d dR = ExpSO3(phi).toRotationMatrix();
-    const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
     // Bias Jacobians (Forster appendix B), from the values at k.
     dp_dba_ += dv_dba_ * dt - 0.5 * R * dt * dt;
     dp_dbg_ += dv_dbg_ * dt - 0.5 * R * a_skew * dR_dbg_ * dt * dt;
@@ -87,12 +81,8 @@ void ImuPreintegration::Integrate() {
     delta_R_ = (delta_R_ * ExpSO3(phi)).normalized();
     dt_s_ += dt;
   }
-  // A zero random walk (a noise-free simulated IMU) still needs a finite weight.
-  covariance_ = PropagateCovariance(
-      noise_.gyroscope_noise_density * noise_.gyroscope_noise_density,
-      noise_.accelerometer_noise_density * noise_.accelerometer_noise_density,
-      std::pow(std::max(noise_.gyroscope_random_walk, 1e-9), 2),
-      std::pow(std::max(noise_.accelerometer_random_walk, 1e-9), 2));
+  const std::array<double, 4> s2 = NoiseVariances();
+  covariance_ = PropagateCovariance(s2[0], s2[1], s2[2], s2[3]);
   // Strictly positive definite (a zero-noise rig would give a singular one).
   covariance_.topLeftCorner<9, 9>() += 1e-12 * Eigen::Matrix<double, 9, 9>::Identity();
 }
@@ -104,14 +94,8 @@ Eigen::Matrix<double, 15, 15> ImuPreintegration::PropagateCovariance(double sg2,
   Eigen::Matrix<double, 15, 15> covariance = Eigen::Matrix<double, 15, 15>::Zero();
   Eigen::Quaterniond delta_R = Eigen::Quaterniond::Identity();
   for (std::size_t k = 0; k + 1 < samples_.size(); ++k) {
-    const double dt = 1e-9 * static_cast<double>(samples_[k + 1].t_ns - samples_[k].t_ns);
-    const Eigen::Vector3d w = 0.5 * (samples_[k].omega_I + samples_[k + 1].omega_I) - gyro_bias_;
-    const Eigen::Vector3d a = 0.5 * (samples_[k].a_I + samples_[k + 1].a_I) - accel_bias_;
+    const auto [dt, w, a, phi, a_skew, dR, Jr] = IntervalAt(k);
     const Eigen::Matrix3d R = delta_R.toRotationMatrix();  // ΔR_k
-    const Eigen::Matrix3d a_skew = Skew(a);
-    const Eigen::Vector3d phi = w * dt;
-    const Eigen::Matrix3d dR = ExpSO3(phi).toRotationMatrix();
-    const Eigen::Matrix3d Jr = RightJacobianSO3(phi);
     // Covariance of [δφ, δv, δp, w_g, w_a] (Forster eq. 62 with the bias random walk w = b - b_i
     // as states): Σ <- A Σ Aᵀ + B_g Σ_g B_gᵀ + B_a Σ_a B_aᵀ + Σ_w.
     Eigen::Matrix<double, 15, 15> A = Eigen::Matrix<double, 15, 15>::Identity();
@@ -137,12 +121,28 @@ Eigen::Matrix<double, 15, 15> ImuPreintegration::PropagateCovariance(double sg2,
 }
 
 std::array<Eigen::Matrix<double, 15, 15>, 4> ImuPreintegration::NoiseComponents() const {
-  const double sg2 = noise_.gyroscope_noise_density * noise_.gyroscope_noise_density;
-  const double sa2 = noise_.accelerometer_noise_density * noise_.accelerometer_noise_density;
-  const double sbg2 = std::pow(std::max(noise_.gyroscope_random_walk, 1e-9), 2);
-  const double sba2 = std::pow(std::max(noise_.accelerometer_random_walk, 1e-9), 2);
-  return {PropagateCovariance(sg2, 0, 0, 0), PropagateCovariance(0, sa2, 0, 0),
-          PropagateCovariance(0, 0, sbg2, 0), PropagateCovariance(0, 0, 0, sba2)};
+  const std::array<double, 4> s2 = NoiseVariances();
+  return {PropagateCovariance(s2[0], 0, 0, 0), PropagateCovariance(0, s2[1], 0, 0),
+          PropagateCovariance(0, 0, s2[2], 0), PropagateCovariance(0, 0, 0, s2[3])};
+}
+
+ImuPreintegration::Interval ImuPreintegration::IntervalAt(std::size_t k) const {
+  Interval in;
+  in.dt = 1e-9 * static_cast<double>(samples_[k + 1].t_ns - samples_[k].t_ns);
+  in.w = 0.5 * (samples_[k].omega_I + samples_[k + 1].omega_I) - gyro_bias_;
+  in.a = 0.5 * (samples_[k].a_I + samples_[k + 1].a_I) - accel_bias_;
+  in.phi = in.w * in.dt;
+  in.a_skew = Skew(in.a);
+  in.dR = ExpSO3(in.phi).toRotationMatrix();
+  in.Jr = RightJacobianSO3(in.phi);
+  return in;
+}
+
+std::array<double, 4> ImuPreintegration::NoiseVariances() const {
+  return {noise_.gyroscope_noise_density * noise_.gyroscope_noise_density,
+          noise_.accelerometer_noise_density * noise_.accelerometer_noise_density,
+          std::pow(std::max(noise_.gyroscope_random_walk, 1e-9), 2),
+          std::pow(std::max(noise_.accelerometer_random_walk, 1e-9), 2)};
 }
 
 Eigen::Quaterniond ImuPreintegration::CorrectedDeltaR(const Eigen::Vector3d& gyro_bias) const {

@@ -82,6 +82,17 @@ class ImuPreintegration {
 
  private:
   void Integrate();
+  // One interval [t_k, t_k+1] at the linearization biases: the mean rates over it (the samples'
+  // average minus the bias), Δt, φ = w Δt and what both passes over the samples need of it.
+  struct Interval {
+    double dt;                      // [s]
+    Eigen::Vector3d w, a, phi;      // [rad/s], [m/s²], [rad]
+    Eigen::Matrix3d a_skew, dR, Jr;  // [a]x, Exp(φ), Jr(φ)
+  };
+  Interval IntervalAt(std::size_t k) const;
+  // σ_g², σ_a² (white) and σ_bg², σ_ba² (random walk) of the rig's IMU; a zero random walk (a
+  // noise-free simulated IMU) still gets a finite weight.
+  std::array<double, 4> NoiseVariances() const;
   // Propagates the covariance of [δφ, δv, δp, w_g, w_a] over the samples with the given
   // variances (σ_g², σ_a² white, σ_bg², σ_ba² random walk) at the current linearization biases.
   Eigen::Matrix<double, 15, 15> PropagateCovariance(double sg2, double sa2, double sbg2,
