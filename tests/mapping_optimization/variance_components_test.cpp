@@ -2,6 +2,7 @@
 // simulated maps whose noise is known: the IMU drawn with k times the densities the rig declares
 // (the estimated gyroscope and accelerometer white-noise scales recover k, the keypoint noise's
 // stays 1), or exactly as declared (every estimated scale stays near 1).
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <cmath>
 
@@ -81,6 +82,44 @@ TEST_CASE("noise scales: an IMU and keypoints as declared keep every scale near 
   // The random walks are weakly determined over 20 s; they stay within the bound.
   CHECK(last.sigma[3] <= 30.0);
   CHECK(last.sigma[4] <= 30.0);
+}
+
+TEST_CASE("noise scales: the IMU's datasheet is a floor (ba_noise_scale_imu_min)") {
+  // An IMU as declared, its components alone estimated (keypoints as declared): the estimates
+  // scatter around 1, and without the floor the gyroscope's lands below it (seed 22: 0.86 with
+  // the keypoints estimated too). With the floor (the default) no IMU scale drops below the
+  // rig's densities, and a factor that pushes a scale against the floor moves nothing, so the
+  // iteration stops without spending its rounds on it.
+  ViOptimizationOptions o = Estimating();
+  o.ba_noise_scale_visual = false;
+  o.ba_noise_scale_imu_min = 0.0;
+  SimulatedViMap free_map = NoisyMap(1.0, 22);
+  const ViOptimizationSummary without = OptimizeViMap(o, &free_map.map);
+  INFO(without.FullReport());
+  double lowest = 1.0;
+  for (int k = 1; k < NoiseFactors::kCount; ++k) {
+    lowest = std::min(lowest, without.noise_scales.back().sigma[k]);
+  }
+  CHECK(lowest < 0.95);
+
+  o.ba_noise_scale_imu_min = ViOptimizationOptions().ba_noise_scale_imu_min;
+  REQUIRE(o.ba_noise_scale_imu_min == 1.0);
+  SimulatedViMap floored_map = NoisyMap(1.0, 22);
+  const ViOptimizationSummary with = OptimizeViMap(o, &floored_map.map);
+  INFO(with.FullReport());
+  for (const NoiseScales& scales : with.noise_scales) {
+    CHECK(scales.sigma[0] == 1.0);  // the keypoints as declared
+    for (int k = 1; k < NoiseFactors::kCount; ++k) CHECK(scales.sigma[k] >= 1.0);
+  }
+  CHECK(with.noise_scales.back().sigma[1] == Approx(1.0).epsilon(0.2));
+  CHECK(with.noise_scales.back().sigma[2] == Approx(1.0).epsilon(0.2));
+  CHECK(with.noise_scales.size() < without.noise_scales.size());
+
+  o.ba_noise_scale_imu_min = -1.0;
+  CHECK_THROWS_WITH(OptimizeViMap(o, &floored_map.map), Catch::Contains("ba_noise_scale_imu_min"));
+  o.ba_noise_scale_imu_min = 1.0;
+  o.ba_noise_scale_probes = 0;
+  CHECK_THROWS_WITH(OptimizeViMap(o, &floored_map.map), Catch::Contains("ba_noise_scale_probes"));
 }
 
 TEST_CASE("noise scales: options checked, and a cancel leaves the map untouched") {

@@ -48,6 +48,11 @@ Command<O> OptimizationFlags(Command<O> c) {
                 "noise scales converged when every sqrt(variance factor) is within this of 1")
           .Flag("ba_noise_scale_max", &O::ba_noise_scale_max,
                 "bound on each estimated noise scale (both ways)")
+          .Flag("ba_noise_scale_imu_min", &O::ba_noise_scale_imu_min,
+                "lower bound on the IMU's estimated noise scales (1: the rig's densities as a "
+                "floor; 0: 1/ba_noise_scale_max)")
+          .Flag("ba_noise_scale_probes", &O::ba_noise_scale_probes,
+                "Hutchinson probes of the variance component estimate")
           .Flag("ba_noise_scale_visual", &O::ba_noise_scale_visual,
                 "with ba_estimate_noise_scales: rescale the keypoint noise too (false: the IMU's "
                 "components only)")

@@ -521,7 +521,8 @@ ViOptimizationSummary SolveViMap(const ViOptimizationOptions& options, const Noi
     for (const Observation& o : observations) {
       if (o.residual != nullptr) visual_blocks.push_back(o.residual);
     }
-    *factors = vi_problem::EstimateVarianceComponents(&problem, inertial_blocks, visual_blocks);
+    *factors = vi_problem::EstimateVarianceComponents(&problem, inertial_blocks, visual_blocks,
+                                                      options.ba_noise_scale_probes);
   }
 
   // ---- write back: vertices first (landmarks are stored relative to their store vertex)

@@ -56,14 +56,21 @@ ViOptimizationSummary OptimizeViMap(const ViOptimizationOptions& options, mapsto
     }
     total.noise_scales.push_back(scales);
     total.noise_factors.push_back(factors);
-    // σ_k ← σ_k sqrt(f_k), bounded; converged when every estimated factor is near 1.
+    // σ_k ← σ_k sqrt(f_k), bounded (the IMU's from below by ba_noise_scale_imu_min: its
+    // datasheet); converged when no scale moved by more than the tolerance (a factor that
+    // pushes a scale against its bound moves nothing).
     bool converged = true;
     for (int k = 0; k < NoiseFactors::kCount; ++k) {
       if (!factors.estimated[k] || (k == 0 && !options.ba_noise_scale_visual)) continue;
-      const double step = std::sqrt(factors.factor[k]);
-      if (std::abs(step - 1.0) > options.ba_noise_scale_tolerance) converged = false;
-      scales.sigma[k] = std::clamp(scales.sigma[k] * step, 1.0 / options.ba_noise_scale_max,
+      const double lower = k == 0 ? 1.0 / options.ba_noise_scale_max
+                                  : std::max(options.ba_noise_scale_imu_min,
+                                             1.0 / options.ba_noise_scale_max);
+      const double before = scales.sigma[k];
+      scales.sigma[k] = std::clamp(before * std::sqrt(factors.factor[k]), lower,
                                    options.ba_noise_scale_max);
+      if (std::abs(scales.sigma[k] / before - 1.0) > options.ba_noise_scale_tolerance) {
+        converged = false;
+      }
     }
     if (converged) break;
   }

@@ -44,6 +44,11 @@ std::string ViOptimizationOptions::Validate() const {
   if (!(ba_noise_scale_max >= 1 && std::isfinite(ba_noise_scale_max))) {
     return "ba_noise_scale_max: expected >= 1";
   }
+  if (!(ba_noise_scale_imu_min >= 0 && ba_noise_scale_imu_min <= ba_noise_scale_max)) {
+    return "ba_noise_scale_imu_min: expected in [0, ba_noise_scale_max] (1: the rig's densities "
+           "as a floor)";
+  }
+  if (ba_noise_scale_probes < 1) return "ba_noise_scale_probes: expected >= 1";
   if (!(ba_outlier_threshold_px > 0)) return "ba_outlier_threshold_px: expected > 0";
   if (ba_num_threads < 1) return "ba_num_threads: expected >= 1";
   if (ba_linear_solver != "sparse_schur" && ba_linear_solver != "iterative_schur" &&

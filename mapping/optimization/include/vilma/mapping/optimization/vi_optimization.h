@@ -87,13 +87,21 @@ struct ViOptimizationOptions {
   // data"): after a converged solve, the variance factor of each noise component (keypoint
   // noise; gyroscope and accelerometer white noise and random walk) from its residuals and
   // its redundancy; the components' sigmas rescaled by sqrt(factor) and the problem solved
-  // again, until every factor is within ba_noise_scale_tolerance of 1 or after
-  // ba_noise_scale_rounds solves. Starts from the scales above; each scale stays within
-  // [1/ba_noise_scale_max, ba_noise_scale_max]. optvi only.
+  // again, until no scale moves by more than ba_noise_scale_tolerance (a scale held at its
+  // bound does not count) or after ba_noise_scale_rounds solves. Starts from the scales above;
+  // each scale stays within [1/ba_noise_scale_max, ba_noise_scale_max], the IMU's at least
+  // ba_noise_scale_imu_min. optvi only.
   bool ba_estimate_noise_scales = false;
   int ba_noise_scale_rounds = 5;            // solves in all (the first with the given noise)
   double ba_noise_scale_tolerance = 0.05;   // |sqrt(factor) - 1| below this: converged
   double ba_noise_scale_max = 30.0;         // bound on each sigma scale, both ways
+  // Lower bound on the IMU's four estimated sigma scales (on top of the scales above): 1
+  // (default) takes the rig's densities as a floor, as a datasheet is (a real IMU is never
+  // better than its datasheet; the simulator's is exactly as declared and its estimates scatter
+  // around 1: docs/optimization-scale.md section 6); 0: 1/ba_noise_scale_max as the keypoints'.
+  double ba_noise_scale_imu_min = 1.0;
+  // Hutchinson probes for the redundancies' traces (the estimate's cost: one sparse solve each).
+  int ba_noise_scale_probes = 32;
   // Also rescale the keypoint noise (and with it the robust loss, which is in sigma units);
   // false: the keypoints keep their declared sigma and only the IMU's four components are
   // rescaled (their factors are still relative to the residuals of the whole problem).
