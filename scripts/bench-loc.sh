@@ -130,13 +130,8 @@ PY
 # shellcheck source=lib/vio-map.sh
 . "$repo_dir/scripts/lib/vio-map.sh"
 
-# make_log SET: the set's LCM log (vilma-replay --to-log), made when missing or stale.
-make_log() {
-  local log=$work/$1.lcmlog
-  if stale "$log" "$datasets/$1/sim.yaml"; then
-    "$bin/vilma-replay" "$datasets/$1" --to-log "$log" --quiet
-  fi
-}
+# make_log SET: the set's LCM log $work/SET.lcmlog (set_log: one shared copy per set).
+make_log() { set_log "$1" > /dev/null || exit 1; }
 
 # daemon_run NAME SET [ARGS...]: vilma-estimatord on SET's log, outputs to $work/NAME.{lcm,out};
 # skipped when they are newer than the log and the daemon binary (and any map in ARGS).

@@ -47,7 +47,7 @@ make_config() {
 # map SET VARIANT: the daemon's map of SET with VARIANT's config ($work/SET-VARIANT).
 map() {
   local set=$1 name=$2 log=$work/$1.lcmlog out=$work/$1-$2
-  [ -e "$log" ] || "$bin/vilma-replay" "$datasets/$set" --to-log "$log" --quiet
+  set_log "$set" || exit 1
   if [ ! -e "$out/manifest.yaml" ] || [ "$bin/vilma-estimatord" -nt "$out/manifest.yaml" ]; then
     rm -rf "$out"
     "$bin/vilma-estimatord" --config "$work/daemon-$name.yaml" --rig "$datasets/$set/rig.yaml" \

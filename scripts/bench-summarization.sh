@@ -108,8 +108,7 @@ for db in full kfh; do
   done
 done
 # 4. The daemon (LOC mode) on room-s5 against the full map and summarized ones.
-[ -e "$work/$query.lcmlog" ] ||
-  "$bin/vilma-replay" "$datasets/$query" --to-log "$work/$query.lcmlog" --quiet
+set_log "$query" || exit 1
 echo
 echo "| vilma-estimatord LOC mode, room-s5 against | .vlocmap MB | global RMSE [m] | VILMA_LOC fixes within 0.5 m |"
 echo "|---|---:|---:|---|"

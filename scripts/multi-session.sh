@@ -46,7 +46,7 @@ else
   trap 'kill $store_pid 2> /dev/null || true' EXIT
   for s in "${sessions[@]}"; do
     log=$work/$s.lcmlog
-    [ -e "$log" ] || "$bin/vilma-replay" "$datasets/$s" --to-log "$log" --quiet
+    set_log "$s" || exit 1
     python3 - "$repo_dir/config/daemon.yaml" "$work/daemon-$s.yaml" "$url" "$s" <<'PY'
 import sys
 text = open(sys.argv[1]).read()
@@ -110,7 +110,7 @@ grep -E '^aam:|^  mission .* (anchored|NOT)|^lc:|^optvi:|cross-mission' "$work/c
 echo "    console: $console_s s, peak RSS $(awk -v k="$(cat "$work/console.rss")" 'BEGIN { printf "%.0f", k / 1024 }') MB"
 
 # 4. The fifth session localized against the merged map.
-"$bin/vilma-replay" "$datasets/$query" --to-log "$work/$query.lcmlog" --quiet
+set_log "$query" || exit 1
 "$bin/vilma-estimatord" --rig "$datasets/$query/rig.yaml" --input-log "$work/$query.lcmlog" \
   --localization-map "$work/merged" --lcm-url "file://$work/$query-loc.lcm?mode=w" \
   > "$work/$query-loc.out" 2>&1

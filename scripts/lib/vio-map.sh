@@ -1,6 +1,6 @@
-# Shared by the map benchmarks (bench-kfh.sh, bench-optvi.sh): a simulated set's LCM log and the
-# VI-map vilma-estimatord builds from it (`--input-log --save-map`, the VIO's poses, no ground
-# truth used), both cached in $work and remade when older than their inputs.
+# Shared by the map benchmarks (bench-kfh.sh, bench-optvi.sh, bench-loc.sh, ...): a simulated
+# set's LCM log and the VI-map vilma-estimatord builds from it (`--input-log --save-map`, the
+# VIO's poses, no ground truth used), both cached and remade when older than their inputs.
 # Needs: bin (build/bin), datasets, work. Source it; it defines functions only.
 
 # stale OUTPUT INPUT...: true when OUTPUT is missing or older than one of the INPUTs.
@@ -13,6 +13,26 @@ stale() {
   return 1
 }
 
+# set_log SET: makes $work/SET.lcmlog, SET's LCM log (vilma-replay --to-log). A log is 0.4-1.7
+# GB and the same for every work folder, so there is one copy per set, $VILMA_LOG_CACHE/SET.lcmlog
+# (default: a folder beside the datasets folder, DATASETS-lcmlogs), written under a temporary name
+# and renamed (a killed run leaves no half log), remade when older than the set's sim.yaml; the
+# work folder gets a hard link to it (a copy across file systems). Benchmarks that compare daemon
+# configs in several work folders then do not fill the disk with copies.
+set_log() {
+  local set=$1 shared_dir=${VILMA_LOG_CACHE:-${datasets%/}-lcmlogs}
+  local shared=$shared_dir/$1.lcmlog log=$work/$1.lcmlog
+  mkdir -p "$shared_dir" "$work"
+  if stale "$shared" "$datasets/$set/sim.yaml"; then
+    "$bin/vilma-replay" "$datasets/$set" --to-log "$shared.tmp.$$" --quiet >&2 ||
+      { rm -f "$shared.tmp.$$"; echo "set_log: vilma-replay failed ($set)" >&2; return 1; }
+    mv -f "$shared.tmp.$$" "$shared"
+  fi
+  if [ ! "$log" -ef "$shared" ]; then
+    ln -f "$shared" "$log" 2> /dev/null || cp -p "$shared" "$log"
+  fi
+}
+
 # vio_map SET: prints the folder of SET's daemon-built VI-map ($work/SET-map; the daemon's
 # output in $work/SET-map.out, its poses in $work/SET-map.lcm). VIO_MAP_DAEMON_CONFIG: a daemon
 # config (--config; e.g. its mapping.map_builder with track refinement), default the built-in.
@@ -23,9 +43,7 @@ vio_map() {
     config=(--config "$VIO_MAP_DAEMON_CONFIG")
     inputs+=("$VIO_MAP_DAEMON_CONFIG")
   fi
-  if stale "$log" "$datasets/$set/sim.yaml"; then
-    "$bin/vilma-replay" "$datasets/$set" --to-log "$log" --quiet >&2
-  fi
+  set_log "$set" || return 1
   if stale "$map.out" "${inputs[@]}" || [ -z "$(ls -A "$map" 2> /dev/null)" ]; then
     rm -rf "$map" "$map.out" "$map.lcm"  # --save-map wants an absent or empty folder
     "$bin/vilma-estimatord" "${config[@]}" --rig "$datasets/$set/rig.yaml" --input-log "$log" \
