@@ -79,10 +79,16 @@ NoiseFactors EstimateVarianceComponents(ceres::Problem* problem,
   }
   Eigen::SparseMatrix<double> J(crs.num_rows, n);
   J.setFromTriplets(triplets.begin(), triplets.end());
-  // N = Jᵀ J with Jacobi scaling D = diag(N)^-1/2 (units: metres, radians, m/s mixed).
-  Eigen::SparseMatrix<double> N = (J.transpose() * J).pruned();
-  Eigen::VectorXd d(n);
-  for (int c = 0; c < n; ++c) d[c] = 1.0 / std::sqrt(std::max(N.coeff(c, c), 1e-300));
+  // N = Jᵀ J with Jacobi scaling D = diag(N)^-1/2 (units: metres, radians, m/s mixed). diag(N)
+  // is the columns' squared norms, so only the scaled product is formed (the sparse product is
+  // most of the estimate's time).
+  Eigen::VectorXd d = Eigen::VectorXd::Zero(n);
+  for (int c = 0; c < n; ++c) {
+    for (Eigen::SparseMatrix<double>::InnerIterator it(J, c); it; ++it) {
+      d[c] += it.value() * it.value();
+    }
+  }
+  for (int c = 0; c < n; ++c) d[c] = 1.0 / std::sqrt(std::max(d[c], 1e-300));
   const Eigen::SparseMatrix<double> Js = J * d.asDiagonal();
   Eigen::SparseMatrix<double> Ns = (Js.transpose() * Js).pruned();
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> llt;
