@@ -22,6 +22,8 @@
 #                    localization columns: attempts, busy (skipped while the localizer worked),
 #                    accepted, VILMA_POSE frames, localizer stage p50 / max
 #                    (docs/benchmarks.md "Localization in the daemon")
+#   BENCH_STEREO     1: the set rendered with cam1 too (vilma-sim --stereo) and the daemon run with
+#                    --stereo (both cameras in the filter and, with BENCH_MAPPING, in the map)
 #   BENCH_DAEMON_CONFIG  a daemon config (--config) for the runs, e.g. mapping.map_builder with
 #                    track refinement (docs/mapping.md "Track refinement"); default the built-in
 #   BENCH_BEFORE_ESTIMATORD  another vilma-estimatord binary (e.g. the pre-split daemon of issue
@@ -51,10 +53,16 @@ for exe in vilma-estimatord vilma-replay vilma-sim vilma-latency-probe; do
   [ -x "$bin/$exe" ] || { echo "bench-daemon: $bin/$exe not built (set VILMA_BUILD_DIR)" >&2; exit 1; }
 done
 
+stereo_args=()
 dataset=$cache/bench-daemon/$preset-${seconds}s
+if [ "${BENCH_STEREO:-0}" = 1 ]; then
+  stereo_args=(--stereo)
+  dataset=$dataset-stereo
+fi
 if [ ! -f "$dataset/rig.yaml" ]; then
   echo "bench-daemon: simulating $preset, $seconds s -> $dataset" >&2
-  "$bin/vilma-sim" "$preset" --out "$dataset" --seconds "$seconds" --seed 1 > /dev/null
+  "$bin/vilma-sim" "$preset" --out "$dataset" --seconds "$seconds" --seed 1 "${stereo_args[@]}" \
+    > /dev/null
 fi
 
 work=$(mktemp -d /tmp/vilma-bench-daemon.XXXXXX)
@@ -96,6 +104,7 @@ for label in $labels; do
   estimatord=$bin/vilma-estimatord
   [ "$label" = before ] && estimatord=$before_exe
   set_label="$preset $seconds s"
+  [ "${BENCH_STEREO:-0}" = 1 ] && set_label="$set_label stereo"
   [ "$label" != current ] && set_label="$set_label $label, load $(cut -d' ' -f1 /proc/loadavg)"
   port=$((port + 1))
   url="udpm://239.255.76.67:$port?ttl=0"
@@ -104,7 +113,7 @@ for label in $labels; do
   config_args=()
   [ -n "${BENCH_DAEMON_CONFIG:-}" ] && config_args=(--config "$BENCH_DAEMON_CONFIG")
   "$estimatord" "${config_args[@]}" --rig "$dataset/rig.yaml" --lcm-url "$url" "${map_args[@]}" \
-    "${loc_args[@]}" > "$work/daemon.out" 2>&1 &
+    "${loc_args[@]}" "${stereo_args[@]}" > "$work/daemon.out" 2>&1 &
   daemon_pid=$!
   "$bin/vilma-latency-probe" --lcm-url "$url" --idle-timeout 2 > "$work/probe.out" 2>&1 &
   probe_pid=$!
