@@ -50,9 +50,10 @@ std::string MapBuilderStats::FullReport(const std::string& indent) const {
     << imu_dropped << " dropped, " << imu_edges_held << " edges ended by a held sample)\n"
     << indent << "keypoints        " << keypoints << " (" << tracked_keypoints
     << " continue a track)\n";
-  if (refined_keypoints > 0 || refinement_splits > 0) {
+  if (refined_keypoints > 0 || refinement_splits > 0 || refinement_kept > 0) {
     s << indent << "track refinement " << refined_keypoints << " observations aligned to their "
-      << "track's first, " << refinement_splits << " tracks split\n";
+      << "track's first, " << refinement_splits << " tracks split, " << refinement_kept
+      << " failed alignments kept in their track\n";
   }
   s
     << indent << "tracks           " << tracks << " with >= 2 observations, " << single_observations
@@ -316,15 +317,18 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
       std::vector<Eigen::Vector2d> uv(n);
       for (std::size_t k = 0; k < n; ++k) uv[k] = frame.keypoints[k].uv;
       const TrackRefinementStats before = refiner.stats();
-      refiner.Refine(*image, r.track_ids, &uv, &frame.track_ids);
-      // Every keypoint of the frame is now track-consistent (aligned to its track's first, or
-      // the first of a new track): the refinement's noise.
+      refiner.Refine(*image, r.track_ids, &uv, &frame.track_ids, &refined_kinds_);
+      // Keypoints aligned to their track's template, and templates (a track's first): the
+      // refinement's noise; kept in their track without alignment: the detector's.
       for (std::size_t k = 0; k < n; ++k) {
         frame.keypoints[k].uv = uv[k];
-        frame.keypoints[k].sigma_px = options_.track_refinement.keypoint_sigma_px;
+        frame.keypoints[k].sigma_px = refined_kinds_[k] == RefinedKeypoint::kUnaligned
+                                          ? options_.triangulation.keypoint_sigma_px
+                                          : options_.track_refinement.keypoint_sigma_px;
       }
       stats_.refined_keypoints += refiner.stats().refined - before.refined;
       stats_.refinement_splits += refiner.stats().splits - before.splits;
+      stats_.refinement_kept += refiner.stats().kept - before.kept;
     } else {
       frame.track_ids = r.track_ids;
     }

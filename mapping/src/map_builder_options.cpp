@@ -32,6 +32,7 @@ void VisitMapBuilderFields(Options& o, Visitor&& v) {
   v("track_refinement", "max_error_grey", o.track_refinement.max_error_grey);
   v("track_refinement", "max_warp_scale", o.track_refinement.max_warp_scale);
   v("track_refinement", "keypoint_sigma_px", o.track_refinement.keypoint_sigma_px);
+  v("track_refinement", "on_failure", o.track_refinement.on_failure);
   v("triangulation", "max_iterations", o.triangulation.max_iterations);
   v("triangulation", "convergence_step_m", o.triangulation.convergence_step_m);
   v("triangulation", "keypoint_sigma_px", o.triangulation.keypoint_sigma_px);

@@ -69,6 +69,9 @@ std::string TrackRefinementOptions::Validate() const {
   if (!(Finite(keypoint_sigma_px) && keypoint_sigma_px > 0)) {
     return "keypoint_sigma_px: expected > 0";
   }
+  if (on_failure != "keep" && on_failure != "reanchor" && on_failure != "split") {
+    return "on_failure: expected \"keep\", \"reanchor\" or \"split\", got \"" + on_failure + "\"";
+  }
   return {};
 }
 
@@ -422,10 +425,14 @@ TrackRefiner::TrackRefiner(const TrackRefinementOptions& options, int64_t split_
     : options_(options), next_split_id_(split_id_base) {}
 
 void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& tracker_ids,
-                          std::vector<Eigen::Vector2d>* uv, std::vector<int64_t>* track_ids) {
+                          std::vector<Eigen::Vector2d>* uv, std::vector<int64_t>* track_ids,
+                          std::vector<RefinedKeypoint>* kinds) {
   track_ids->assign(tracker_ids.begin(), tracker_ids.end());
+  if (kinds != nullptr) kinds->assign(tracker_ids.size(), RefinedKeypoint::kReference);
   if (!options_.enabled()) return;
   const bool forward_additive = solver_ == Solver::kForwardAdditive;
+  const bool split = options_.on_failure == "split";
+  const bool reanchor = options_.on_failure == "reanchor";
   const GradientImage gradients = GradientImage::FromGrey(image, forward_additive);
   std::unordered_map<int64_t, Track>& next = next_;
   next.clear();
@@ -437,13 +444,16 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
     const Eigen::Vector2d detected = (*uv)[k];
     const auto it = tracks_.find(tid);
     Track track;
+    RefinedKeypoint kind = RefinedKeypoint::kReference;
     bool start_new = true;
     if (it != tracks_.end()) {
       track = std::move(it->second);
+      // The start: the previous stored point moved by the detector's motion.
+      const Eigen::Vector2d c0 = track.aligned_uv + (detected - track.detected_uv);
+      bool aligned = false;
       if (track.has_patch) {
         // The inverse compositional data only for tracks that continue (most never do).
         if (!forward_additive && !track.patch.prepared) track.patch.Prepare();
-        const Eigen::Vector2d c0 = track.aligned_uv + (detected - track.detected_uv);
         PatchAlignment a =
             forward_additive ? AlignPatchTemplateForwardAdditive(track.patch, gradients, c0,
                                                                  track.warp, options_)
@@ -457,18 +467,39 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
           track.detected_uv = detected;
           track.aligned_uv = a.center;
           track.warp = a.warp;
-          (*track_ids)[k] = track.id;
           ++stats_.refined;
           stats_.shift_sum_px += (a.center - detected).norm();
-          start_new = false;
+          aligned = true;
+          kind = RefinedKeypoint::kAligned;
         } else {
-          ++stats_.splits;
-          ++stats_.split_by_status[static_cast<int>(a.status)];
+          ++stats_.failed_by_status[static_cast<int>(a.status)];
+          if (split) {
+            ++stats_.splits;
+          } else {
+            ++stats_.kept;
+          }
         }
       }
-      // A track whose first observation had no patch (too close to the border) or whose
-      // alignment failed continues as a new track from here.
-      if (start_new) track.id = next_split_id_++;
+      if (aligned) {
+        start_new = false;
+      } else if (!split) {
+        // Kept in its track at c0 (consistent with the track up to the detector's noise). The
+        // warp stays (the next alignment starts from it). "reanchor", or a track without a
+        // template yet (its first observation too close to the border): a template here.
+        (*uv)[k] = c0;
+        track.detected_uv = detected;
+        track.aligned_uv = c0;
+        kind = RefinedKeypoint::kUnaligned;
+        if (reanchor || !track.has_patch) {
+          track.has_patch = track.patch.Sample(gradients, c0, h);
+          track.warp.setIdentity();
+        }
+        start_new = false;
+      } else {
+        // "split": a track whose first observation had no patch (too close to the border) or
+        // whose alignment failed continues as a new track from here.
+        track.id = next_split_id_++;
+      }
     } else {
       track.id = tid;
     }
@@ -477,8 +508,12 @@ void TrackRefiner::Refine(const cv::Mat& image, const std::vector<int64_t>& trac
       track.detected_uv = detected;
       track.aligned_uv = detected;
       track.warp.setIdentity();
-      (*track_ids)[k] = track.id;
+      // Without a template the first observation cannot anchor its track (kept modes: the
+      // detector's noise; "split": the reference, as before).
+      if (!track.has_patch && !split) kind = RefinedKeypoint::kUnaligned;
     }
+    (*track_ids)[k] = track.id;
+    if (kinds != nullptr) (*kinds)[k] = kind;
     next.emplace(tid, std::move(track));
   }
   std::swap(tracks_, next_);

@@ -113,7 +113,8 @@ void CheckSameMission(const mapstore::VIMap& whole, const mapstore::VIMap& strea
         continue;
       }
       for (std::size_t k = 0; k < fa.keypoints.size(); ++k) {
-        mismatches += !(fa.keypoints[k].uv == fb.keypoints[k].uv);
+        mismatches += !(fa.keypoints[k].uv == fb.keypoints[k].uv &&
+                        fa.keypoints[k].sigma_px == fb.keypoints[k].sigma_px);
         const bool la = fa.landmark_ids[k].IsValid(), lb = fb.landmark_ids[k].IsValid();
         if (la != lb) {
           ++mismatches;
@@ -268,11 +269,15 @@ StreamedRun Stream(const SlidingStream& stream, const mapping::MapBuilderOptions
 
 TEST_CASE("map memory: with track refinement the streamed mission is the whole one",
           "[daemon][mapping][memory]") {
-  // Refinement moves keypoints and splits tracks (new ids) inside AddFrame, before either
-  // memory mode sees the track ids: the streamed receiver's map must equal the whole mission.
+  // Refinement moves keypoints, sets their sigmas and (on_failure "split") splits tracks (new
+  // ids) inside AddFrame, before either memory mode sees the track ids: the streamed
+  // receiver's map must equal the whole mission.
+  const std::string on_failure = GENERATE(as<std::string>(), "keep", "reanchor", "split");
+  INFO("on_failure " << on_failure);
   const SlidingStream stream(200);
   mapping::MapBuilderOptions options;
   options.track_refinement.method = "affine";
+  options.track_refinement.on_failure = on_failure;
   MapBuilder whole(stream.rig, options, 7, "stand");
   for (int i = 0; i < stream.size(); ++i) {
     SlidingStream::AddImu(&whole, i);
@@ -284,6 +289,8 @@ TEST_CASE("map memory: with track refinement the streamed mission is the whole o
   CHECK(whole.stats().refined_keypoints > whole.stats().tracked_keypoints / 2);
   CHECK(run.stats.refined_keypoints == whole.stats().refined_keypoints);
   CHECK(run.stats.refinement_splits == whole.stats().refinement_splits);
+  CHECK(run.stats.refinement_kept == whole.stats().refinement_kept);
+  if (on_failure != "split") CHECK(whole.stats().refinement_splits == 0);
   CHECK(run.stats.landmarks == whole.stats().landmarks);
   CHECK(run.stats.landmarks_good == whole.stats().landmarks_good);
   CHECK(mapstore::CheckMapConsistency(run.receiver).ok());

@@ -41,6 +41,7 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   o.track_refinement.method = "affine";
   o.track_refinement.max_offset_px = 0.75;
   o.track_refinement.max_error_grey = 5.5;
+  o.track_refinement.on_failure = "reanchor";
   const MapBuilderOptions back = ParseMapBuilderOptions(MapBuilderOptionsToYaml(o), "t.yaml");
   CHECK(back.vertex_rate_hz == 7.5);
   CHECK(back.cameras == std::vector<int>{1, 0});
@@ -54,6 +55,7 @@ TEST_CASE("map builder options: YAML round trip", "[mapping]") {
   CHECK(back.track_refinement.method == "affine");
   CHECK(back.track_refinement.max_offset_px == 0.75);
   CHECK(back.track_refinement.max_error_grey == 5.5);
+  CHECK(back.track_refinement.on_failure == "reanchor");
   CHECK(MapBuilderOptionsToYaml(back) == MapBuilderOptionsToYaml(o));
 }
 
@@ -94,6 +96,12 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
   CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "method: \"none\"", "method: \"klt\""),
                                            "m.yaml"),
                     Catch::Contains("track_refinement.method"));
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "on_failure: \"keep\"",
+                                                   "on_failure: \"drop\""),
+                                           "m.yaml"),
+                    Catch::Contains("track_refinement.on_failure"));
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "  on_failure: \"keep\"\n", ""), "m.yaml"),
+                    Catch::Contains("on_failure"));
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: [0, 0]"), "m"),
                   InputError);
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: 3"), "m"),

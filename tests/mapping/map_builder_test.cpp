@@ -378,7 +378,9 @@ TEST_CASE("map builder: track refinement puts the room's landmarks closer to the
     }
     return Median(distances);
   };
-  const GtBuild plain = BuildFromGroundTruth(dataset);
+  MapBuilderOptions plain_options;
+  plain_options.track_refinement.method = "none";  // the detector's keypoints
+  const GtBuild plain = BuildFromGroundTruth(dataset, plain_options);
   MapBuilderOptions options;
   options.track_refinement.method = "affine";
   const GtBuild refined = BuildFromGroundTruth(dataset, options);
@@ -389,7 +391,8 @@ TEST_CASE("map builder: track refinement puts the room's landmarks closer to the
        << d_plain * 100 << " cm (" << plain.stats.landmarks_good << " good), affine track "
        << "refinement " << d_refined * 100 << " cm (" << refined.stats.landmarks_good
        << " good; " << refined.stats.refined_keypoints << " observations aligned, "
-       << refined.stats.refinement_splits << " splits)");
+       << refined.stats.refinement_splits << " splits, " << refined.stats.refinement_kept
+       << " failed alignments kept, on_failure " << options.track_refinement.on_failure << ")");
   CHECK(refined.stats.refined_keypoints > refined.stats.tracked_keypoints / 2);
   CHECK(refined.stats.refinement_splits < refined.stats.tracked_keypoints / 5);
   CHECK(refined.stats.landmarks_good >= 300);

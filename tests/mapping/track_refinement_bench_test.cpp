@@ -184,12 +184,13 @@ TEST_CASE("track refinement benchmark: inverse compositional against forward add
     }
   }
   const auto report = [](const char* name, const TrackRefinementStats& s) {
-    std::printf("%s: %lld refined, %lld splits (", name, static_cast<long long>(s.refined),
-                static_cast<long long>(s.splits));
+    std::printf("%s: %lld refined, %lld splits, %lld kept (", name,
+                static_cast<long long>(s.refined), static_cast<long long>(s.splits),
+                static_cast<long long>(s.kept));
     for (int i = 1; i < 8; ++i) {
       std::printf("%s%s %lld", i > 1 ? ", " : "",
                   PatchAlignmentStatusName(static_cast<PatchAlignment::Status>(i)),
-                  static_cast<long long>(s.split_by_status[i]));
+                  static_cast<long long>(s.failed_by_status[i]));
     }
     std::printf("), mean |aligned - detected| %.3f px\n",
                 s.refined > 0 ? s.shift_sum_px / static_cast<double>(s.refined) : 0.0);

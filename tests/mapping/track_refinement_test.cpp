@@ -87,6 +87,14 @@ TEST_CASE("track refinement options: defaults valid, bad values named", "[mappin
   o = TrackRefinementOptions();
   o.convergence_px = 0.0;
   CHECK(o.Validate().find("convergence_px") == 0);
+  o = TrackRefinementOptions();
+  CHECK(o.on_failure == "keep");
+  for (const char* ok : {"keep", "reanchor", "split"}) {
+    o.on_failure = ok;
+    CHECK(o.Validate().empty());
+  }
+  o.on_failure = "drop";
+  CHECK(o.Validate().find("on_failure") == 0);
 }
 
 TEST_CASE("AlignPatchTemplate finds a sub-pixel shift under a brightness change",
@@ -182,7 +190,8 @@ TEST_CASE("AlignPatchTemplate rejects another texture and a patch leaving the im
   CHECK_FALSE(patch.Extract(ref, Eigen::Vector2d(3, 60), o.patch_half_size_px));
 }
 
-TEST_CASE("TrackRefiner: observations follow the track's first one, a failure splits the track",
+TEST_CASE("TrackRefiner: observations follow the track's first one, a failure splits the track "
+          "(split)",
           "[mapping][refine]") {
   // A surface approached over 12 keyframes (scale 1 -> 1.5) and drifting sideways; keypoints
   // "detected" at the integer pixel nearest each point's image (a quantization error that
@@ -192,7 +201,9 @@ TEST_CASE("TrackRefiner: observations follow the track's first one, a failure sp
   const std::vector<Eigen::Vector2d> points = {{120, 100}, {160, 120}, {200, 110}, {150, 140},
                                                {180, 90}};
   const int64_t split_base = int64_t{1} << 39;
-  TrackRefiner refiner(Options("affine"), split_base);
+  TrackRefinementOptions options = Options("affine");
+  options.on_failure = "split";
+  TrackRefiner refiner(options, split_base);
   std::vector<std::vector<Eigen::Vector2d>> stored;
   const Eigen::Vector2d center(160, 120);
   double worst = 0.0;
@@ -242,6 +253,120 @@ TEST_CASE("TrackRefiner: observations follow the track's first one, a failure sp
   CHECK(refiner.stats().splits == 5);
 }
 
+TEST_CASE("TrackRefiner: a failed alignment in the middle of a track keeps the track (keep, "
+          "reanchor)",
+          "[mapping][refine]") {
+  // One surface drifting sideways by (0.31, -0.23) px per keyframe over 8 keyframes; keyframe
+  // 4 shows another texture (an occlusion): its alignments fail. The detector reports each
+  // point at the integer pixel nearest its image, in keyframe 4 too (it matched descriptors).
+  const BlobTexture tex(31);
+  const int width = 240, height = 180;
+  const std::vector<Eigen::Vector2d> points = {{80, 70}, {120, 90}, {150, 60}};
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const Eigen::Vector2d drift(0.31, -0.23);
+  const int kFailed = 4;
+  for (const std::string mode : {"keep", "reanchor"}) {
+    INFO("on_failure " << mode);
+    TrackRefinementOptions o = Options("affine");
+    o.on_failure = mode;
+    TrackRefiner refiner(o, int64_t{1} << 39);
+    std::vector<Eigen::Vector2d> stored_before(points.size());
+    for (int f = 0; f < 8; ++f) {
+      const Eigen::Vector2d t = drift * f;
+      const cv::Mat image = f == kFailed ? Render(BlobTexture(32), width, height, I2, t)
+                                         : Render(tex, width, height, I2, t);
+      std::vector<int64_t> tracker_ids;
+      std::vector<Eigen::Vector2d> uv, detected;
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        const Eigen::Vector2d p = points[i] + t;
+        tracker_ids.push_back(20 + static_cast<int64_t>(i));
+        uv.emplace_back(std::round(p.x()), std::round(p.y()));
+      }
+      detected = uv;
+      std::vector<int64_t> ids;
+      std::vector<RefinedKeypoint> kinds;
+      refiner.Refine(image, tracker_ids, &uv, &ids, &kinds);
+      INFO("keyframe " << f);
+      REQUIRE(ids == tracker_ids);  // one track each, the failed keyframe included
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        const Eigen::Vector2d first(std::round(points[i].x()), std::round(points[i].y()));
+        const Eigen::Vector2d truth = first + t;  // the first observation's point, seen now
+        if (f == 0) {
+          CHECK(kinds[i] == RefinedKeypoint::kReference);
+          CHECK(uv[i] == detected[i]);
+        } else if (f == kFailed) {
+          // Kept at c0: the previous stored point moved by the detector's motion.
+          CHECK(kinds[i] == RefinedKeypoint::kUnaligned);
+          const Eigen::Vector2d detected_before =
+              Eigen::Vector2d(std::round(points[i].x() + drift.x() * (f - 1)),
+                              std::round(points[i].y() + drift.y() * (f - 1)));
+          CHECK((uv[i] - (stored_before[i] + detected[i] - detected_before)).norm() < 1e-12);
+          // Consistent with the track up to the detector's noise (quantization: < 1.5 px).
+          CHECK((uv[i] - truth).norm() < 1.5);
+        } else if (f < kFailed || mode == "keep") {
+          // Aligned to the first template: on the first observation's point.
+          CHECK(kinds[i] == RefinedKeypoint::kAligned);
+          CHECK((uv[i] - truth).norm() < 0.05);
+        } else {
+          // reanchor: aligned to the template taken at c0 in the failed keyframe, which shows
+          // the other texture: the alignment fails again and the observation stays at c0.
+          CHECK(kinds[i] != RefinedKeypoint::kReference);
+        }
+        stored_before[i] = uv[i];
+      }
+    }
+    CHECK(refiner.stats().splits == 0);
+    CHECK(refiner.stats().kept >= 3);
+    if (mode == "keep") {
+      CHECK(refiner.stats().refined == 6 * 3);
+      CHECK(refiner.stats().kept == 3);
+    }
+  }
+}
+
+TEST_CASE("TrackRefiner: after a detector jump, reanchor aligns to the template taken at c0",
+          "[mapping][refine]") {
+  // The surface moves by whole pixels (exact detections); from keyframe 1 on the detector
+  // reports the point 2.5 px to the right (it settled on a neighbouring corner), so c0 (the
+  // previous point moved by the detector's motion) lies 2.5 px off in keyframe 1 and the
+  // alignment, which finds the first template's point, is too far from it. keep: the track
+  // stays, every later c0 is 2.5 px off as well and its alignments to the first template fail
+  // the same way; reanchor: a template at c0 in keyframe 1, to which the later ones align.
+  const BlobTexture tex(41);
+  const int width = 200, height = 160;
+  const Eigen::Matrix2d I2 = Eigen::Matrix2d::Identity();
+  const Eigen::Vector2d point(100, 80), drift(1, -1), jump(2.5, 0);
+  for (const std::string mode : {"keep", "reanchor"}) {
+    INFO("on_failure " << mode);
+    TrackRefinementOptions o = Options("affine");
+    o.on_failure = mode;
+    o.max_shift_px = 1.0;
+    TrackRefiner refiner(o, 1000);
+    for (int f = 0; f < 4; ++f) {
+      const Eigen::Vector2d truth = point + drift * f;
+      const cv::Mat image = Render(tex, width, height, I2, drift * f);
+      std::vector<Eigen::Vector2d> uv = {f == 0 ? truth : Eigen::Vector2d(truth + jump)};
+      std::vector<int64_t> ids;
+      std::vector<RefinedKeypoint> kinds;
+      refiner.Refine(image, {5}, &uv, &ids, &kinds);
+      INFO("keyframe " << f);
+      REQUIRE(ids == std::vector<int64_t>{5});
+      if (f == 0) {
+        CHECK(kinds[0] == RefinedKeypoint::kReference);
+      } else if (f == 1 || mode == "keep") {
+        CHECK(kinds[0] == RefinedKeypoint::kUnaligned);
+        CHECK((uv[0] - (truth + jump)).norm() < 1e-9);
+      } else {
+        CHECK(kinds[0] == RefinedKeypoint::kAligned);
+        CHECK((uv[0] - (truth + jump)).norm() < 0.05);
+      }
+    }
+    CHECK(refiner.stats().splits == 0);
+    CHECK(refiner.stats().failed_by_status[static_cast<int>(PatchAlignment::Status::kTooFar)] ==
+          (mode == "keep" ? 3 : 1));
+  }
+}
+
 TEST_CASE("TrackRefiner with method none changes nothing", "[mapping][refine]") {
   TrackRefiner refiner(Options("none"), 1000);
   const cv::Mat image(100, 100, CV_8UC1, cv::Scalar(7));
@@ -262,6 +387,7 @@ TEST_CASE("TrackRefiner: max_offset_px splits a track whose aligned point leaves
   const cv::Mat second = Render(tex, 200, 160, I2, shift);
   for (const double max_offset : {0.0, 2.0, 1.0}) {
     TrackRefinementOptions o = Options("affine");
+    o.on_failure = "split";
     o.max_offset_px = max_offset;
     TrackRefiner refiner(o, 1000);
     std::vector<Eigen::Vector2d> uv = {{100, 80}};
@@ -275,7 +401,7 @@ TEST_CASE("TrackRefiner: max_offset_px splits a track whose aligned point leaves
     if (max_offset == 1.0) {
       CHECK(ids[0] == 1000);
       CHECK(uv[0] == detected);
-      CHECK(refiner.stats().split_by_status[static_cast<int>(PatchAlignment::Status::kOffset)] ==
+      CHECK(refiner.stats().failed_by_status[static_cast<int>(PatchAlignment::Status::kOffset)] ==
             1);
     } else {
       CHECK(ids[0] == 7);

@@ -86,10 +86,12 @@ struct MapBuilderStats {
   int64_t imu_edges_held = 0;       // completed by Finish() with a held last sample
   int64_t keypoints = 0;            // over all vertices and cameras
   int64_t tracked_keypoints = 0;    // keypoints that continue a track
-  // options.track_refinement: observations moved to their track's aligned position, and
-  // alignments that failed and split their track (track_refinement.h).
+  // options.track_refinement: observations moved to their track's aligned position,
+  // alignments that failed and split their track ("split"), and failed ones kept in their track
+  // with the detector's sigma ("keep", "reanchor"; track_refinement.h).
   int64_t refined_keypoints = 0;
   int64_t refinement_splits = 0;
+  int64_t refinement_kept = 0;
   int64_t tracks = 0;               // tracks with >= 2 observations
   int64_t single_observations = 0;  // tracks seen once (no landmark)
   // Track segments closed at options.max_track_vertices / max_track_duration_s (the track's
@@ -234,6 +236,7 @@ class MapBuilder {
   mapstore::VIMap map_;
   std::vector<std::unique_ptr<localizer::FeatureTracker>> trackers_;  // per rig camera
   std::vector<std::unique_ptr<TrackRefiner>> refiners_;  // per rig camera, next to trackers_
+  std::vector<RefinedKeypoint> refined_kinds_;  // Refine's output, reused across frames
 
   std::deque<ImuSample> imu_;  // from the last sample at or before the oldest needed time
   bool has_vertex_ = false;

@@ -34,8 +34,13 @@
 // between the two keyframes (c0 = c_prev + u_det - u_det_prev: the detector's own offset
 // cancels) and the previous warp. An alignment that fails (leaves the image, does not
 // converge, moves farther than max_shift_px from c0, keeps a large photometric error, or
-// degenerates the warp) splits the track: the observation keeps the detector's position and
-// starts a new track with itself as the reference.
+// degenerates the warp) is handled by `on_failure`: "keep" (the default) leaves the
+// observation in its track at c0, the best estimate without alignment (consistent with the
+// track up to the detector's noise, so the builder stores the detector's sigma with it), and
+// the next continuation aligns against the same first template again, from c0; "reanchor"
+// keeps it at c0 as well but samples a new template there (later observations align to it);
+// "split" (the behaviour before 2026-11-28) starts a new track at the observation, with the
+// detector's position and itself as the reference.
 #pragma once
 
 #include <Eigen/Core>
@@ -74,7 +79,14 @@ struct TrackRefinementOptions {
   // sigma_px; optvi and triangulation weight by it) [px]: the observations of a track agree
   // with its first to ~0.1 px (street: median 0.085, p90 0.36 px against the truth,
   // docs/optimization.md "Track-consistent keypoints"); 0.15 px leaves room for the tail.
+  // Observations kept in their track after a failed alignment ("keep", "reanchor") carry the
+  // detector's sigma instead (MapBuilderOptions::triangulation.keypoint_sigma_px).
   double keypoint_sigma_px = 0.15;
+  // A failed alignment: "keep" the observation in its track at c0 = c_prev + (u_det -
+  // u_det_prev) and align the next one against the track's first template again; "reanchor":
+  // at c0 too, with a new template sampled there for the later ones; "split": a new track
+  // starts at the detector's position (more, shorter tracks: docs/mapping.md).
+  std::string on_failure = "keep";
   // Empty when valid, else "field: expectation".
   std::string Validate() const;
   bool enabled() const { return method != "none"; }
@@ -151,25 +163,37 @@ PatchAlignment AlignPatchTemplateForwardAdditive(const PatchTemplate& patch,
 
 struct TrackRefinementStats {
   int64_t refined = 0;  // observations moved to the aligned position
-  int64_t splits = 0;   // alignments that failed: a new track started there
-  int64_t split_by_status[8] = {};  // per PatchAlignment::Status
+  int64_t splits = 0;   // alignments that failed and started a new track ("split")
+  int64_t kept = 0;     // alignments that failed, the observation kept at c0 ("keep", "reanchor")
+  int64_t failed_by_status[8] = {};  // the failed alignments per PatchAlignment::Status
   double shift_sum_px = 0.0;        // sum of |aligned - detected| over the refined ones
+};
+
+// What the refinement made of a keypoint (the builder stores the refinement's sigma with
+// kReference and kAligned, the detector's with kUnaligned).
+enum class RefinedKeypoint : uint8_t {
+  kReference,  // a track's first observation, or the first of a split track: the template
+  kAligned,    // aligned to its track's template
+  kUnaligned,  // kept in its track without alignment: c0 (or, without a template, the
+               // detector's position), consistent with the track up to the detector's noise
 };
 
 // The refinement of one camera's tracks, keyframe by keyframe (the map builder holds one per
 // camera, next to its FeatureTracker). Track ids: a tracker id is kept as long as the track is
-// not split; a split track continues under a new id from `split_id_base` upwards (which must
-// not overlap the tracker's ids).
+// not split; a split track ("split") continues under a new id from `split_id_base` upwards
+// (which must not overlap the tracker's ids).
 class TrackRefiner {
  public:
   TrackRefiner(const TrackRefinementOptions& options, int64_t split_id_base);
 
   // `image`: the keyframe (8-bit grey); `tracker_ids`: the tracker's track id per keypoint;
   // `uv`: the detector's positions, replaced by the aligned ones; `track_ids`: set to the
-  // builder's track id per keypoint. Tracks that this keyframe does not continue are
-  // forgotten (the tracker continues tracks from the previous keyframe only).
+  // builder's track id per keypoint; `kinds` (optional): set to what each keypoint became.
+  // Tracks that this keyframe does not continue are forgotten (the tracker continues tracks
+  // from the previous keyframe only).
   void Refine(const cv::Mat& image, const std::vector<int64_t>& tracker_ids,
-              std::vector<Eigen::Vector2d>* uv, std::vector<int64_t>* track_ids);
+              std::vector<Eigen::Vector2d>* uv, std::vector<int64_t>* track_ids,
+              std::vector<RefinedKeypoint>* kinds = nullptr);
   // Forgets every track (the tracker was reset).
   void Reset() { tracks_.clear(); }
   const TrackRefinementStats& stats() const { return stats_; }
