@@ -17,6 +17,8 @@ namespace vilma::eval {
 std::string GroundTruthMapOptions::Validate() const {
   if (camera < 0) return "camera: expected an index >= 0";
   if (!(seconds > 0.0)) return "seconds: expected a duration > 0 [s]";
+  const std::string e = map_builder.Validate();
+  if (!e.empty()) return "map_builder." + e;
   return "";
 }
 
@@ -45,7 +47,7 @@ GroundTruthMapSummary BuildGroundTruthLocalizationMap(const std::string& dataset
       camera >= static_cast<int>(ds.cameras().size())) {
     throw InputError(FormatInputError(dataset_path, "--camera", "a camera of the rig"));
   }
-  mapping::MapBuilderOptions builder_options;
+  mapping::MapBuilderOptions builder_options = options.map_builder;
   builder_options.cameras = {camera};
   mapping::MapBuilder builder(rig, builder_options, 42, "groundtruth");
   const auto& imu = ds.imu();

@@ -15,9 +15,11 @@ namespace {
 
 void Usage(std::ostream& out) {
   out << "usage: vilma-locmap-gt DATASET OUT.vlocmap [--seconds S] [--camera C]\n"
+         "                       [--map-config MAP_BUILDER.yaml]\n"
          "Builds a localization map from DATASET (ASL folder with rig.yaml and ground truth):\n"
          "map-builder vertices with the ground-truth states (G = the dataset's world frame),\n"
-         "keyframe features of camera C (default 0), the first S seconds (default: all).\n"
+         "keyframe features of camera C (default 0), the first S seconds (default: all);\n"
+         "--map-config: the map builder's options (default: config/map_builder.yaml's values).\n"
          "Exit codes: 0 ok, 1 input error or a map without landmarks, 2 usage error.\n";
 }
 
@@ -27,6 +29,7 @@ int main(int argc, char** argv) {
   using namespace vilma;
   std::string dataset, out;
   eval::GroundTruthMapOptions options;
+  std::string map_config;
   const std::vector<std::string> args(argv + 1, argv + argc);  // ArgCursor keeps a reference
   try {
     for (ArgCursor arg(args); arg.Next();) {
@@ -38,6 +41,8 @@ int main(int argc, char** argv) {
         options.seconds = arg.DoubleValue();
       } else if (a == "--camera") {
         options.camera = arg.IntValue(0);
+      } else if (a == "--map-config") {
+        map_config = arg.Value();
       } else if (arg.is_option()) {
         throw UsageError("unknown option '" + a + "'");
       } else if (dataset.empty()) {
@@ -56,6 +61,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
+    if (!map_config.empty()) options.map_builder = mapping::LoadMapBuilderOptions(map_config);
     const eval::GroundTruthMapSummary summary =
         eval::BuildGroundTruthLocalizationMap(dataset, options);
     localizer::SaveLocalizationMap(summary.map, out);

@@ -111,6 +111,10 @@ TEST_CASE("ground-truth map + dataset localization on a simulated room session",
   map_options.camera = 4;
   CHECK_THROWS_WITH(BuildGroundTruthLocalizationMap(room, map_options),
                     Catch::Contains(room) && Catch::Contains("--camera"));
+  map_options = GroundTruthMapOptions();
+  map_options.map_builder.track_refinement.on_failure = "drop";
+  CHECK_THROWS_WITH(BuildGroundTruthLocalizationMap(room, map_options),
+                    Catch::Contains("map_builder.track_refinement.on_failure"));
   const GroundTruthMapSummary built = BuildGroundTruthLocalizationMap(room, GroundTruthMapOptions());
   CHECK(built.frames == 161);  // 8 s at 20 Hz, both ends
   CHECK(built.vertices > 10);

@@ -7,12 +7,16 @@
 #include <string>
 
 #include "vilma/localizer/localization_map.h"
+#include "vilma/mapping/map_builder_options.h"
 
 namespace vilma::eval {
 
 struct GroundTruthMapOptions {
   int camera = 0;         // camera of the rig and dataset whose keyframe features go in (>= 0)
   double seconds = 1e9;   // the first `seconds` of the dataset (> 0) [s]
+  // The map builder's options (config/map_builder.yaml; its `cameras` is replaced by
+  // {camera}).
+  mapping::MapBuilderOptions map_builder;
   // Empty when valid, else "field: expected ...".
   std::string Validate() const;
 };
