@@ -1,10 +1,13 @@
 // loopclosure_all_missions / lc on a daemon-built map: loops within the mission, landmarks
 // merged, edges added, consistent, deterministic; bad input changes nothing.
 #include <catch2/catch.hpp>
+#include <map>
+#include <tuple>
 
 #include "console_plugins/test_maps.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/mapstore/consistency.h"
+#include "vilma/mapstore/map_io.h"
 
 namespace vilma::console {
 namespace {
@@ -54,6 +57,56 @@ TEST_CASE("lc within a mission merges re-observed landmarks and adds loop-closur
   };
   CHECK(counts(reports[0]) == counts(reports[1]));
   CHECK_THAT(counts(reports[0]), Catch::Contains("loops verified"));
+}
+
+TEST_CASE("lc: keypoints that join another track's landmark get the detector's noise") {
+  // Every keypoint as if refined (0.15 px, consistent with its own track only): the ones lc
+  // ties to another track's landmark get lc_merged_keypoint_sigma_px (1 px by default), the
+  // others keep theirs; 0 keeps every keypoint's.
+  const auto& maps = test::TestMaps();
+  mapstore::VIMap refined = mapstore::LoadMap(maps.session0_map);
+  const mapstore::MissionId mission = refined.mission_ids().at(0);
+  std::map<std::tuple<mapstore::VertexId, std::size_t, std::size_t>, mapstore::LandmarkId> before;
+  for (const auto& v : refined.vertex_ids(mission)) {
+    auto& frames = refined.vertex(v).frames;
+    for (std::size_t c = 0; c < frames.size(); ++c) {
+      for (std::size_t k = 0; k < frames[c].keypoints.size(); ++k) {
+        frames[c].keypoints[k].sigma_px = 0.15;
+        before[{v, c, k}] = frames[c].landmark_ids[k];
+      }
+    }
+  }
+  const std::string dir = test::ConsoleScratch("lc_sigma") + "/map";
+  mapstore::SaveMap(refined, dir);
+  for (const double merged_sigma : {1.0, 0.0}) {
+    INFO("lc_merged_keypoint_sigma_px " << merged_sigma);
+    Fixture f;
+    REQUIRE(f.Run("load " + dir).ok());
+    REQUIRE(f.Run("lc --lc_min_time_gap_s=3 --lc_merged_keypoint_sigma_px=" +
+                  std::to_string(merged_sigma))
+                .ok());
+    const mapstore::VIMap& map = f.map();
+    REQUIRE(LoopEdges(map) > 0);
+    int joined = 0, wrong = 0;
+    for (const auto& [key, landmark] : before) {
+      const auto& [v, c, k] = key;
+      const mapstore::VisualFrame& frame = map.vertex(v).frames[c];
+      // Joined: observes a landmark now that it did not before (its own was merged away, or it
+      // had none).
+      const bool now = frame.landmark_ids[k].IsValid();
+      const bool moved = now && (!landmark.IsValid() || !map.HasLandmark(landmark) ||
+                                 frame.landmark_ids[k] != landmark);
+      joined += moved;
+      const double expected = moved && merged_sigma > 0 ? merged_sigma : 0.15;
+      wrong += frame.keypoints[k].sigma_px != expected;
+    }
+    CHECK(joined > 0);
+    CHECK(wrong == 0);
+    CHECK(mapstore::CheckMapConsistency(map).ok());
+  }
+  Fixture f;
+  REQUIRE(f.Run("load " + maps.session0_map).ok());
+  CHECK_FALSE(f.Run("lc --lc_merged_keypoint_sigma_px=-1").ok());
 }
 
 TEST_CASE("lc: a gap longer than the session finds nothing, bad input changes nothing") {

@@ -30,6 +30,9 @@ void Register(CommandRegistry* registry) {
                 "a loop turns a vertex at most this much [deg]")
           .Flag("lc_every_nth_vertex", &LcOptions::lc_every_nth_vertex, "query every n-th vertex")
           .Flag("lc_add_edges", &LcOptions::lc_add_edges, "add loop-closure edges (for relax)")
+          .Flag("lc_merged_keypoint_sigma_px", &LcOptions::lc_merged_keypoint_sigma_px,
+                "keypoints joining another track's landmark get at least this noise (0: keep) "
+                "[px]")
           .Flag("map_mission", &LcOptions::map_mission,
                 "query missions: ids, unique prefixes or names, comma separated (default: all)",
                 {"mission"})

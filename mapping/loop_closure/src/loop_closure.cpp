@@ -1,5 +1,6 @@
 #include "vilma/mapping/loop_closure/loop_closure.h"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
@@ -27,6 +28,9 @@ std::string LoopClosureOptions::Validate() const {
   if (!(lc_max_correction_m > 0)) return "lc_max_correction_m: expected > 0";
   if (!(lc_max_correction_deg > 0)) return "lc_max_correction_deg: expected > 0";
   if (lc_every_nth_vertex < 1) return "lc_every_nth_vertex: expected >= 1";
+  if (!(std::isfinite(lc_merged_keypoint_sigma_px) && lc_merged_keypoint_sigma_px >= 0)) {
+    return "lc_merged_keypoint_sigma_px: expected >= 0 (0: keep each keypoint's)";
+  }
   return "";
 }
 
@@ -57,6 +61,13 @@ bool FrameSees(const VIMap& map, const LandmarkId& landmark, const VertexId& ver
     if (o.vertex_id == vertex && o.camera == camera) return true;
   }
   return false;
+}
+
+// A keypoint joins a landmark of another track: its noise at least `sigma_px` (its position
+// agrees with its own track's reference, with the landmark's only up to the detector's noise).
+void RaiseKeypointSigma(VIMap* map, const LandmarkObservation& o, double sigma_px) {
+  mapstore::Keypoint& k = map->vertex(o.vertex_id).frames[o.camera].keypoints[o.keypoint];
+  k.sigma_px = std::max(k.sigma_px, sigma_px);
 }
 
 mapstore::IdGenerator EdgeIds(const VIMap& map, const MissionId& mission) {
@@ -208,13 +219,18 @@ LoopClosureSummary CloseLoops(const LoopClosureOptions& options, VIMap* map,
             const std::vector<LandmarkObservation> moving = map->landmark(Q).observations;
             for (const LandmarkObservation& o : moving) {
               map->RemoveObservation(Q, o);
-              if (!FrameSees(*map, L, o.vertex_id, o.camera)) map->AddObservation(L, o);
+              if (!FrameSees(*map, L, o.vertex_id, o.camera)) {
+                map->AddObservation(L, o);
+                RaiseKeypointSigma(map, o, options.lc_merged_keypoint_sigma_px);
+              }
             }
             map->RemoveLandmark(Q);
             merged[Q] = L;
             ++s.landmarks_merged;
           } else if (!FrameSees(*map, L, v, c)) {
-            map->AddObservation(L, {v, c, static_cast<uint32_t>(match.keypoint)});
+            const LandmarkObservation o{v, c, static_cast<uint32_t>(match.keypoint)};
+            map->AddObservation(L, o);
+            RaiseKeypointSigma(map, o, options.lc_merged_keypoint_sigma_px);
             ++s.observations_added;
           }
         }

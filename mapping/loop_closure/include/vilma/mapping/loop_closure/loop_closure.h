@@ -12,7 +12,10 @@
 // a wrong place that happens to look alike). Then:
 //   - each inlier keypoint is tied to the matched landmark L: its own landmark Q (if any) is
 //     merged into L (all of Q's observations move to L, except where the frame already sees L;
-//     Q is removed), or the keypoint becomes an observation of L;
+//     Q is removed), or the keypoint becomes an observation of L; each keypoint that joins L
+//     this way gets at least lc_merged_keypoint_sigma_px as its noise (a refined track's
+//     keypoints agree with their own track's first observation to ~0.15 px, but with L's only
+//     up to the detector's placement noise: docs/loop-closure.md "Method");
 //   - a loop-closure edge from the query vertex to the database vertex that observes most of
 //     the inliers, T_A_B = T_G_A^-1 T_G_B with T_G_A from the RANSAC pose, covariance from it.
 // Positions are not changed: run rtl and optvi (or relax) after lc. Deterministic.
@@ -39,6 +42,10 @@ struct LoopClosureOptions {
   double lc_max_correction_deg = 10.0;    // and turns it at most this much [deg]
   int lc_every_nth_vertex = 1;            // query every n-th vertex
   bool lc_add_edges = true;               // loop-closure edges for relax
+  // Keypoints that join a landmark of another track (merged or added) get at least this
+  // measurement noise (mapstore::Keypoint::sigma_px; the map builder's detector noise,
+  // triangulation.keypoint_sigma_px) [px]; 0: each keeps its own.
+  double lc_merged_keypoint_sigma_px = 1.0;
   std::string Validate() const;
 };
 
