@@ -62,6 +62,7 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("update", "mahalanobis_threshold", o.update.mahalanobis_threshold);
   v("update", "max_mean_abs_error", o.update.max_mean_abs_error);
   v("update", "align_iterations", o.update.align_iterations);
+  v("update", "persistent_pixel_sigma", o.update.persistent_pixel_sigma);
   v("features", "max_features", o.features.max_features);
   v("features", "init_inverse_depth", o.features.init_inverse_depth);
   v("features", "init_inverse_depth_sigma", o.features.init_inverse_depth_sigma);
@@ -70,6 +71,8 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("features", "min_shi_tomasi", o.features.min_shi_tomasi);
   v("features", "detect_below", o.features.detect_below);
   v("features", "min_inverse_depth", o.features.min_inverse_depth);
+  v("features", "refresh_patch_every", o.features.refresh_patch_every);
+  v("features", "refresh_min_relative_score", o.features.refresh_min_relative_score);
   v("features.patch", "patch_size", o.features.patch.patch_size);
   v("features.patch", "num_levels", o.features.patch.num_levels);
   v("features.detector", "fast_threshold", o.features.detector.fast_threshold);
@@ -103,6 +106,8 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("stereo", "joint_update", o.stereo.joint_update);
   v("stereo", "model_error_correlation", o.stereo.model_error_correlation);
   v("stereo", "max_disagreements", o.stereo.max_disagreements);
+  v("stereo", "probation_frames", o.stereo.probation_frames);
+  v("stereo", "probation_max_mean_nis", o.stereo.probation_max_mean_nis);
 }
 
 }  // namespace
@@ -167,6 +172,7 @@ std::string UpdateOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(ValidatePositive("mahalanobis_threshold", mahalanobis_threshold));
   VILMA_RETURN_IF_ERROR(ValidatePositive("max_mean_abs_error", max_mean_abs_error));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("align_iterations", align_iterations, 1));
+  VILMA_RETURN_IF_ERROR(ValidateNonNegative("persistent_pixel_sigma", persistent_pixel_sigma));
   return "";
 }
 
@@ -181,6 +187,9 @@ std::string FeatureOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("detect_below", detect_below, 0));
   if (detect_below > max_features) return "detect_below: expected <= max_features";
   VILMA_RETURN_IF_ERROR(ValidateNonNegative("min_inverse_depth", min_inverse_depth));
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("refresh_patch_every", refresh_patch_every, 0));
+  VILMA_RETURN_IF_ERROR(
+      ValidateNonNegative("refresh_min_relative_score", refresh_min_relative_score));
   if (patch.patch_size < 2) return "patch.patch_size: expected >= 2";
   if (patch.num_levels < 1) return "patch.num_levels: expected >= 1";
   if (photometric.min_level < 0 || photometric.min_level > photometric.max_level) {
@@ -228,6 +237,8 @@ std::string StereoOptions::Validate() const {
     return "model_error_correlation: expected a value in [0, 1]";
   }
   if (max_disagreements < 0) return "max_disagreements: expected >= 0 (0: off)";
+  if (probation_frames < 0) return "probation_frames: expected >= 0 (0: off)";
+  VILMA_RETURN_IF_ERROR(ValidatePositive("probation_max_mean_nis", probation_max_mean_nis));
   return "";
 }
 

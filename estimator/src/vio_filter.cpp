@@ -3,6 +3,7 @@
 #include <Eigen/Cholesky>
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "vilma/core/error.h"
 #include "vilma/core/imu.h"
@@ -218,12 +219,15 @@ bool VioFilter::UpdateFeature(int slot) {
   const Eigen::Matrix<double, 3, 2> B0 = BearingBasis(x_.features[i].mu_C);
   Eigen::Matrix<double, 2, 3> J0;  // d pixel / d (dmu, dtd)
   J0 << Jp * B0, J_td;
+  const double persistent = PersistentPixelVariance(slot);
   const Eigen::Matrix2d S_pix =
-      J0 * P_sub * J0.transpose() + uo.pixel_sigma * uo.pixel_sigma * Eigen::Matrix2d::Identity() +
+      J0 * P_sub * J0.transpose() +
+      (uo.pixel_sigma * uo.pixel_sigma + persistent) * Eigen::Matrix2d::Identity() +
       Eigen::Matrix2d::Identity() * 0.25;  // alignment precision [px^2]
   const Eigen::Vector2d e = aligned.pixel - pixel;
+  last_nis_ = e.dot(S_pix.ldlt().solve(e));
   if (!aligned.converged || aligned.mean_abs_error > uo.max_mean_abs_error ||
-      !(e.dot(S_pix.ldlt().solve(e)) < uo.mahalanobis_threshold)) {
+      !(last_nis_ < uo.mahalanobis_threshold)) {
     ++track.failures;
     return false;
   }
@@ -273,7 +277,7 @@ bool VioFilter::UpdateFeature(int slot) {
     const Eigen::Matrix<double, 2, 3> H = R_qr * J_it;
     S = H * P_sub * H.transpose() +
         uo.intensity_sigma * uo.intensity_sigma * Eigen::Matrix2d::Identity() +
-        uo.pixel_sigma * uo.pixel_sigma * R_qr * R_qr.transpose();
+        (uo.pixel_sigma * uo.pixel_sigma + persistent) * R_qr * R_qr.transpose();
     Eigen::Vector3d d_cur;
     d_cur << BearingBoxMinus(mu, mu0), x_iter_.td - x0_.td;
     PHt_.noalias() = Pcols_ * H.transpose();
@@ -297,7 +301,61 @@ bool VioFilter::UpdateFeature(int slot) {
   P_.noalias() -= KS_ * K_.transpose();
   track.failures = 0;
   ++track.age;
+  ++track.template_updates;
+  track.updated = true;
   return true;
+}
+
+double VioFilter::PersistentPixelVariance(int slot) const {
+  // A template error e_T that is the same in every frame, taken by the update as independent
+  // per frame: with variance s^2 n at the n-th update made with the template, the information
+  // the updates draw from it grows as sum 1/(s^2 n) ~ ln(N) / s^2 instead of N / s^2.
+  const double s = options_.update.persistent_pixel_sigma;
+  return s * s * static_cast<double>(tracks_[static_cast<std::size_t>(slot)].template_updates + 1);
+}
+
+void VioFilter::RefreshPatch(int slot) {
+  // ROVIO (ImgUpdate, after a frame): a tracked feature's multilevel patch is re-extracted at
+  // its updated estimate and kept if its Shi-Tomasi score is good enough (absolute or relative
+  // to the old patch's); the warp starts again from the identity.
+  const std::size_t i = static_cast<std::size_t>(slot);
+  Track& track = tracks_[i];
+  const FeatureOptions& fo = options_.features;
+  Eigen::Vector2d pixel;
+  Eigen::Vector3d mu;
+  Eigen::Matrix<double, 3, 2> J_mu_px;
+  if (!PredictPixel(x_, slot, &pixel, nullptr, nullptr) ||
+      !camera_.camera.Unproject(pixel, &mu, &J_mu_px) ||
+      !refreshed_patch_.Extract(pyramid_, pixel, Eigen::Matrix2d::Identity(), fo.patch)) {
+    ++stats_.patch_refresh_rejections;
+    return;
+  }
+  const double score = refreshed_patch_.ShiTomasiScore();
+  if (!(score >= fo.min_shi_tomasi && score >= fo.refresh_min_relative_score * track.score)) {
+    ++stats_.patch_refresh_rejections;
+    return;
+  }
+  std::swap(track.patch, refreshed_patch_);
+  track.score = score;
+  track.A.setIdentity();
+  // d tangent / d pixel at the new extraction, in the basis of the feature's bearing (Warp
+  // multiplies B(mu) A D).
+  track.D = BearingBasis(x_.features[i].mu_C).transpose() * J_mu_px;
+  track.template_updates = 0;
+  ++stats_.patch_refreshes;
+}
+
+void VioFilter::ProbationStep(int slot, double nis) {
+  Track& track = tracks_[static_cast<std::size_t>(slot)];
+  const StereoOptions& so = options_.stereo;
+  track.probation_nis += nis;
+  if (--track.probation > 0) return;
+  if (track.probation_nis / static_cast<double>(so.probation_frames) > so.probation_max_mean_nis) {
+    track.failures = options_.features.max_failures;  // removed after this frame's updates
+    ++stats_.probation_removals;
+  } else {
+    ++stats_.probation_passes;
+  }
 }
 
 void VioFilter::RemoveFeature(int slot) {
@@ -309,6 +367,9 @@ void VioFilter::RemoveFeature(int slot) {
   tracks_[i].failures = 0;
   tracks_[i].age = 0;
   tracks_[i].disagreements = 0;
+  tracks_[i].template_updates = 0;
+  tracks_[i].probation = 0;
+  tracks_[i].probation_nis = 0.0;
 }
 
 void VioFilter::AddFeatures() {
@@ -343,6 +404,11 @@ void VioFilter::AddFeatures() {
     track.failures = 0;
     track.age = 0;
     track.disagreements = 0;
+    track.score = track.patch.ShiTomasiScore();
+    track.template_updates = 0;
+    track.updated = false;
+    track.probation = 0;
+    track.probation_nis = 0.0;
     track.id = next_feature_id_++;
     const int k = FeatureIndex(static_cast<int>(slot));
     P_.middleRows<kFeatureDim>(k).setZero();
@@ -399,8 +465,20 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
   if (have_second_image_) pyramid2_.Build(second_gray8, options_.features.patch.num_levels);
 
   const bool joint = have_second_image_ && options_.stereo.update && options_.stereo.joint_update;
+  for (Track& track : tracks_) track.updated = false;
   for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
     if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
+    if (tracks_[static_cast<std::size_t>(slot)].probation > 0) {
+      // stereo.probation_frames: a stereo-matched feature in C1 alone until its depth has
+      // been tested against C1's flow.
+      if (UpdateFeature(slot)) {
+        ++result.num_updated;
+        ProbationStep(slot, last_nis_);
+      } else {
+        ++result.num_rejected;
+      }
+      continue;
+    }
     if (joint) {
       // Both cameras in one update; a camera that fails leaves the other's update alone.
       const JointUpdate j = UpdateFeatureJoint(slot);
@@ -439,6 +517,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
     // update per feature, after all updates in the anchor camera.
     for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
       if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
+      if (tracks_[static_cast<std::size_t>(slot)].probation > 0) continue;  // C1 alone
       if (UpdateFeatureInSecond(slot)) {
         ++result.num_stereo_updated;
       } else {
@@ -465,6 +544,15 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
         f.rho < options_.features.min_inverse_depth || disagrees) {
       if (disagrees) ++stats_.stereo_disagreement_removals;
       RemoveFeature(slot);
+    }
+  }
+  if (options_.features.refresh_patch_every > 0) {
+    for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
+      const Track& track = tracks_[static_cast<std::size_t>(slot)];
+      if (x_.features[static_cast<std::size_t>(slot)].active && track.updated &&
+          track.template_updates >= options_.features.refresh_patch_every) {
+        RefreshPatch(slot);
+      }
     }
   }
   stats_.updates += result.num_updated;

@@ -61,9 +61,11 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
   // 1. Outlier check in C2: patch alignment from the prediction, Mahalanobis gate.
   const AlignmentResult aligned =
       AlignPatch(track.patch, pyramid2_, pr.pixel, W, po, uo.align_iterations);
-  const Eigen::Matrix2d S_pix = J0 * P_sub * J0.transpose() +
-                                uo.pixel_sigma * uo.pixel_sigma * Eigen::Matrix2d::Identity() +
-                                Eigen::Matrix2d::Identity() * 0.25;  // alignment precision
+  const double persistent = PersistentPixelVariance(slot);
+  const Eigen::Matrix2d S_pix =
+      J0 * P_sub * J0.transpose() +
+      (uo.pixel_sigma * uo.pixel_sigma + persistent) * Eigen::Matrix2d::Identity() +
+      Eigen::Matrix2d::Identity() * 0.25;  // alignment precision
   const Eigen::Vector2d e = aligned.pixel - pr.pixel;
   if (!aligned.converged || aligned.mean_abs_error > uo.max_mean_abs_error ||
       !(e.dot(S_pix.ldlt().solve(e)) < uo.mahalanobis_threshold)) {
@@ -108,7 +110,7 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
     const Eigen::Matrix<double, 2, 4> H = R_qr * J_it;
     S = H * P_sub * H.transpose() +
         uo.intensity_sigma * uo.intensity_sigma * Eigen::Matrix2d::Identity() +
-        uo.pixel_sigma * uo.pixel_sigma * R_qr * R_qr.transpose();
+        (uo.pixel_sigma * uo.pixel_sigma + persistent) * R_qr * R_qr.transpose();
     const FeatureState& f = x_iter_.features[i];
     Eigen::Vector4d d_cur;
     d_cur << BearingBoxMinus(f.mu_C, mu0), f.rho - x0_.features[i].rho, x_iter_.td - x0_.td;
@@ -177,6 +179,10 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
     for (int col = 0; col < 4; ++col) P_sub(r, col) = P_(cols[r], cols[col]);
   }
   const double px2 = uo.pixel_sigma * uo.pixel_sigma;
+  // update.persistent_pixel_sigma: the template's persistent error is the same in both
+  // cameras (correlation 1).
+  const double persistent = PersistentPixelVariance(slot);
+  const double persistent_sigma = std::sqrt(persistent);
 
   // 1. Each camera's outlier check exactly as in its separate update (alignment from the
   //    prediction, Mahalanobis gate on the aligned pixel).
@@ -196,7 +202,7 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   const AlignmentResult aligned1 =
       AlignPatch(track.patch, pyramid_, pixel1, W1, po, uo.align_iterations);
   const Eigen::Matrix2d S1 = J0.topRows<2>() * P_sub * J0.topRows<2>().transpose() +
-                             (px2 + 0.25) * Eigen::Matrix2d::Identity();
+                             (px2 + persistent + 0.25) * Eigen::Matrix2d::Identity();
   const Eigen::Vector2d e1 = aligned1.pixel - pixel1;
   if (!aligned1.converged || aligned1.mean_abs_error > uo.max_mean_abs_error ||
       !(e1.dot(S1.ldlt().solve(e1)) < uo.mahalanobis_threshold)) {
@@ -214,7 +220,7 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   const AlignmentResult aligned2 =
       AlignPatch(track.patch, pyramid2_, pr2.pixel, W2, po, uo.align_iterations);
   const Eigen::Matrix2d S2 =
-      J02 * P_sub * J02.transpose() + (px2 + 0.25) * Eigen::Matrix2d::Identity();
+      J02 * P_sub * J02.transpose() + (px2 + persistent + 0.25) * Eigen::Matrix2d::Identity();
   const Eigen::Vector2d e2 = aligned2.pixel - pr2.pixel;
   if (!aligned2.converged || aligned2.mean_abs_error > uo.max_mean_abs_error ||
       !(e2.dot(S2.ldlt().solve(e2)) < uo.mahalanobis_threshold)) {
@@ -228,6 +234,8 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   x0_ = x_;
   Eigen::Matrix4d N_pix = StereoJointNoise(Eigen::Matrix2d::Identity(),
                                            Eigen::Matrix2d::Identity(), 0.0, uo.pixel_sigma, c);
+  N_pix += StereoJointNoise(Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(), 0.0,
+                            persistent_sigma, 1.0);
   N_pix += 0.25 * Eigen::Matrix4d::Identity();  // alignment precision [px^2]
   Eigen::Vector4d e;
   e << e1, e2;
@@ -268,7 +276,8 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
     Eigen::Vector4d y;
     y << y1, y2;
     S = H * P_sub * H.transpose() +
-        StereoJointNoise(R1, R2, uo.intensity_sigma, uo.pixel_sigma, c);
+        StereoJointNoise(R1, R2, uo.intensity_sigma, uo.pixel_sigma, c) +
+        StereoJointNoise(R1, R2, 0.0, persistent_sigma, 1.0);
     const FeatureState& f = x_iter_.features[i];
     Eigen::Vector4d d_cur;
     d_cur << BearingBoxMinus(f.mu_C, mu0), f.rho - x0_.features[i].rho, x_iter_.td - x0_.td;
@@ -298,6 +307,8 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   P_.noalias() -= KS4_ * K4_.transpose();
   tracks_[i].failures = 0;
   ++tracks_[i].age;
+  ++tracks_[i].template_updates;
+  tracks_[i].updated = true;
   return JointUpdate::kDone;
 }
 
@@ -323,6 +334,8 @@ void VioFilter::InitializeDepthFromStereo(int slot) {
     return;
   }
   ++stats_.stereo_matches;
+  tracks_[i].probation = so.probation_frames;
+  tracks_[i].probation_nis = 0.0;
   f.rho = match.rho;
   const int k = FeatureIndex(slot);
   P_(k + 2, k + 2) = match.rho_sigma * match.rho_sigma;

@@ -91,6 +91,20 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
   CHECK_THROWS_WITH(ParseFilterOptions(replace("max_disagreements: 0", "max_disagreements: -1"),
                                        "f.yaml"),
                     "f.yaml: stereo.max_disagreements: expected >= 0 (0: off)");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("persistent_pixel_sigma: 0.0",
+                                               "persistent_pixel_sigma: -0.1"),
+                                       "f.yaml"),
+                    "f.yaml: update.persistent_pixel_sigma: expected >= 0");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("refresh_patch_every: 0", "refresh_patch_every: -1"),
+                                       "f.yaml"),
+                    "f.yaml: features.refresh_patch_every: expected >= 0");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("probation_frames: 0", "probation_frames: -2"),
+                                       "f.yaml"),
+                    "f.yaml: stereo.probation_frames: expected >= 0 (0: off)");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("probation_max_mean_nis: 4.0",
+                                               "probation_max_mean_nis: 0"),
+                                       "f.yaml"),
+                    "f.yaml: stereo.probation_max_mean_nis: expected > 0");
   CHECK_THROWS_WITH(ParseFilterOptions("[1, 2]", "f.yaml"), Catch::Contains("f.yaml"));
   CHECK_THROWS_WITH(LoadFilterOptions("/nonexistent/estimator.yaml"),
                     Catch::Contains("/nonexistent/estimator.yaml"));

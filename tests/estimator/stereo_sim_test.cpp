@@ -1,6 +1,7 @@
 // Stereo initial-depth matching on the simulator's renders (perfect images, exact rig): the
 // share of new features whose inverse distance is matched in camera 2, and why the others are
-// not (StereoMatchFailure). docs/estimator.md "Why stereo matches fail".
+// not (StereoMatchFailure). docs/estimator.md "Why stereo matches fail". With
+// stereo.probation_frames, the matched depths tested against C1's flow (session 36).
 #include <catch2/catch.hpp>
 #include <cstdlib>
 #include <filesystem>
@@ -28,27 +29,39 @@ TEST_CASE("stereo: most new features of a simulated room are matched in camera 2
   const AslDataset dataset = AslDataset::Open(dir.string());
   const SensorRig rig = LoadSensorRig((dir / "rig.yaml").string());
   REQUIRE(dataset.cameras().size() >= 2);
+  auto run = [&](const FilterOptions& options) {
+    VioFilter filter(rig, 0, options);
+    const auto& frames0 = dataset.cameras()[0].frames;
+    const auto& frames1 = dataset.cameras()[1].frames;
+    std::size_t next = 0, j = 0;
+    for (const CameraFrame& frame : frames0) {
+      while (next < dataset.imu().size() && dataset.imu()[next].t_ns <= frame.t_ns) {
+        filter.AddImu(dataset.imu()[next++]);
+      }
+      while (j < frames1.size() && frames1[j].t_ns < frame.t_ns) ++j;
+      REQUIRE(j < frames1.size());
+      REQUIRE(frames1[j].t_ns == frame.t_ns);
+      filter.AddImage(frame.t_ns, AslDataset::LoadImage(frame.image_path),
+                      AslDataset::LoadImage(frames1[j].image_path));
+    }
+    return filter.stats();
+  };
   FilterOptions options;
   options.stereo.enabled = true;
   // The candidate search alone (its recall): the uniqueness test that rejects ambiguous
   // matches for precision (off by default) is off here whatever the default.
   options.stereo.min_uniqueness_ratio = 0.0;
-  VioFilter filter(rig, 0, options);
-  const auto& frames0 = dataset.cameras()[0].frames;
-  const auto& frames1 = dataset.cameras()[1].frames;
-  std::size_t next = 0, j = 0;
-  for (const CameraFrame& frame : frames0) {
-    while (next < dataset.imu().size() && dataset.imu()[next].t_ns <= frame.t_ns) {
-      filter.AddImu(dataset.imu()[next++]);
-    }
-    while (j < frames1.size() && frames1[j].t_ns < frame.t_ns) ++j;
-    REQUIRE(j < frames1.size());
-    REQUIRE(frames1[j].t_ns == frame.t_ns);
-    filter.AddImage(frame.t_ns, AslDataset::LoadImage(frame.image_path),
-                    AslDataset::LoadImage(frames1[j].image_path));
-  }
+  const FilterStats s = run(options);
+  // stereo.probation_frames (session 36): the matched depths are tested against C1's flow
+  // before C2 joins; on the room's renders most matches are right and pass.
+  options.stereo.probation_frames = 5;
+  const FilterStats p = run(options);
   std::filesystem::remove_all(dir);
-  const FilterStats& s = filter.stats();
+  INFO("probation: " << p.probation_passes << " passed, " << p.probation_removals
+                     << " removed of " << p.stereo_matches << " matches");
+  CHECK(p.probation_passes > 0);
+  CHECK(p.probation_passes >= 3 * p.probation_removals);
+  CHECK(s.probation_passes + s.probation_removals == 0);  // off by default
   const auto& why = s.stereo_match_failure_reasons;
   INFO("matched " << s.stereo_matches << ", not " << s.stereo_match_failures
                   << " (no sample " << why[1] << ", not converged " << why[2] << ", residual "

@@ -285,6 +285,57 @@ TEST_CASE("a diverging filter is detected, reset and re-initialized") {
   CHECK(filter.state().num_active() > 0);
 }
 
+TEST_CASE("a template refresh re-extracts tracked patches and the filter still tracks") {
+  // features.refresh_patch_every (ROVIO re-extracts after every tracked frame; session 36).
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  for (const int every : {1, 5}) {
+    options.features.refresh_patch_every = every;
+    VioFilter filter(TheScene().rig, 0, options);
+    int resets = 0;
+    const double error = RunScene(RunConfig(), &filter, &resets);
+    const FilterStats& s = filter.stats();
+    INFO("every " << every << ": " << s.patch_refreshes << " refreshes, "
+                  << s.patch_refresh_rejections << " not; final position error " << error
+                  << " m");
+    CHECK(resets == 0);
+    // Roughly one refresh per `every` accepted updates (the plane's texture is good
+    // everywhere, so the score test seldom refuses one).
+    CHECK(s.patch_refreshes > s.updates / (2 * every));
+    CHECK(error < 0.05);  // of a 0.8 m x 0.4 m motion, as without the refresh
+  }
+  options.features.refresh_patch_every = 0;
+  VioFilter never(TheScene().rig, 0, options);
+  int resets = 0;
+  RunScene(RunConfig(), &never, &resets);
+  CHECK(never.stats().patch_refreshes == 0);
+  CHECK(never.stats().patch_refresh_rejections == 0);
+}
+
+TEST_CASE("a persistent template error makes the vision updates less informative") {
+  // update.persistent_pixel_sigma adds variance that grows with the updates made with a
+  // template: over the same run, the position covariance ends larger than without it.
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  RunConfig config;
+  config.seconds = 3.0;
+  VioFilter white(TheScene().rig, 0, options);
+  options.update.persistent_pixel_sigma = 0.25;
+  VioFilter persistent(TheScene().rig, 0, options);
+  int resets_white = 0, resets_persistent = 0;
+  const double error_white = RunScene(config, &white, &resets_white);
+  const double error_persistent = RunScene(config, &persistent, &resets_persistent);
+  const double var_white = white.covariance().block<3, 3>(kIdxP, kIdxP).trace();
+  const double var_persistent = persistent.covariance().block<3, 3>(kIdxP, kIdxP).trace();
+  INFO("position std " << std::sqrt(var_white) << " -> " << std::sqrt(var_persistent)
+                       << " m; error " << error_white << " -> " << error_persistent << " m");
+  CHECK(resets_white + resets_persistent == 0);
+  CHECK(var_persistent > 1.2 * var_white);
+  CHECK(error_persistent < 0.05);
+}
+
 TEST_CASE("the filter is deterministic") {
   FilterOptions options;
   options.features.max_features = 8;

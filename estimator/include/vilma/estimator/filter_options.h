@@ -76,6 +76,11 @@ struct UpdateOptions {
   double mahalanobis_threshold = 13.8;  // chi^2 gate (2 DoF, 99.9%) on the aligned pixel
   double max_mean_abs_error = 30.0;  // patch is an outlier above this mean |r| [grey levels]
   int align_iterations = 10;         // patch alignment (outlier check) Gauss-Newton steps
+  // A pixel-level error of the feature's template that persists from frame to frame (its
+  // placement at extraction) [px]; 0: off. The update takes each frame's error as new, so the
+  // variance of this part is counted with the number of updates n made with the template:
+  // sigma^2 n at the n-th (docs/estimator.md, "Persistent template errors", session 36).
+  double persistent_pixel_sigma = 0.0;
   std::string Validate() const;
 };
 
@@ -89,6 +94,13 @@ struct FeatureOptions {
   double min_shi_tomasi = 20.0;      // drop / don't add patches weaker than this
   int detect_below = 20;             // look for new features when fewer are tracked [count]
   double min_inverse_depth = 0.0;    // features behind this are dropped [1/m]
+  // Template refresh (ROVIO re-extracts the patch of every tracked feature after each frame):
+  // after this many updates with its template, a feature updated in this frame has its patch
+  // re-extracted at its updated pixel estimate (0: never, the template of the detection is
+  // kept), when the new patch's Shi-Tomasi score is >= min_shi_tomasi and >=
+  // refresh_min_relative_score x the old one's (docs/estimator.md, session 36).
+  int refresh_patch_every = 0;
+  double refresh_min_relative_score = 0.5;
   PatchOptions patch;
   FeatureDetectorOptions detector;
   PhotometricOptions photometric;
@@ -141,6 +153,13 @@ struct StereoOptions {
   // near, which C1 alone does not correct; docs/estimator.md "Street: is the disparity
   // biased?").
   int max_disagreements = 0;
+  // A feature with a stereo depth is updated in C1 alone during its first probation_frames
+  // accepted updates (0: off); then, if the mean normalized innovation e^T S^-1 e of C1's
+  // aligned pixel (2 DoF) over them exceeds probation_max_mean_nis, its depth disagrees with
+  // C1's flow and the feature is removed, else the second camera joins its updates
+  // (docs/estimator.md, session 36).
+  int probation_frames = 0;
+  double probation_max_mean_nis = 4.0;
   std::string Validate() const;
 };
 

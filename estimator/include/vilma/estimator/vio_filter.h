@@ -65,6 +65,10 @@ struct FilterStats {
   int64_t stereo_matches = 0;      // new features with rho from a stereo match
   int64_t stereo_match_failures = 0;  // new features left at features.init_inverse_depth
   int64_t stereo_disagreement_removals = 0;  // removed after stereo.max_disagreements
+  int64_t probation_removals = 0;  // stereo.probation_frames: depth disagreed with C1's flow
+  int64_t probation_passes = 0;    // ... agreed: the second camera joined
+  int64_t patch_refreshes = 0;     // features.refresh_patch_every: templates re-extracted
+  int64_t patch_refresh_rejections = 0;  // ... not re-extracted (outside, or score too low)
   // stereo_match_failures by reason, indexed by StereoMatchFailure (index 0 unused).
   std::array<int64_t, kNumStereoMatchFailures> stereo_match_failure_reasons{};
 };
@@ -130,6 +134,11 @@ class VioFilter {
     int age = 0;
     int disagreements = 0;  // consecutive frames: C1 updated, C2 in view but rejected
     int64_t id = 0;         // feature_id()
+    double score = 0.0;     // Shi-Tomasi score of the patch
+    int template_updates = 0;  // accepted updates with the current patch (since extraction)
+    bool updated = false;      // an update was accepted in the current frame
+    int probation = 0;         // stereo.probation_frames: C1-only updates still to make
+    double probation_nis = 0.0;  // sum of C1's normalized innovations during the probation
   };
 
   bool Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not);
@@ -158,6 +167,15 @@ class VioFilter {
                        OtherCameraPrediction* prediction, Eigen::Matrix<double, 2, 4>* J) const;
   void AddFeatures();
   void RemoveFeature(int slot);
+  // features.refresh_patch_every: re-extracts the slot's patch at its current pixel estimate
+  // (ROVIO's template refresh after a tracked frame) if the new patch is good enough.
+  void RefreshPatch(int slot);
+  // update.persistent_pixel_sigma^2 x (updates made with the slot's template + 1) [px^2].
+  double PersistentPixelVariance(int slot) const;
+  // stereo.probation_frames: one C1-only update of a stereo-matched feature was accepted with
+  // normalized innovation nis; at the end of the probation, removes a feature whose depth
+  // disagreed with C1's flow (marks it for removal).
+  void ProbationStep(int slot, double nis);
   std::string CheckHealth() const;
   Eigen::Matrix2d Warp(int slot, const Eigen::Matrix<double, 2, 3>& J_pixel_p_C) const;
   // d mu / dt of a feature from the camera's current rates.
@@ -215,6 +233,8 @@ class VioFilter {
   Eigen::VectorXd residual_;
   Eigen::Matrix<double, Eigen::Dynamic, 2> J_residual_pixel_;
   std::vector<Eigen::Vector2d> occupied_;
+  MultilevelPatch refreshed_patch_;  // RefreshPatch's candidate
+  double last_nis_ = 0.0;  // UpdateFeature: e^T S^-1 e of the aligned pixel (2 DoF)
 };
 
 }  // namespace vilma::estimator
