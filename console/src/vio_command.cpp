@@ -359,6 +359,15 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
           << " initial depths matched, " << s.stereo_match_failures << " not; "
           << pipeline.stage().counters().frames_without_stereo << " frames without it; "
           << s.stereo_disagreement_removals << " features removed (C1 and C2 disagreeing)\n";
+      if (options.stereo.probation_frames > 0) {
+        out << "  probation        " << s.probation_passes
+            << " stereo depths confirmed by the VIO camera's flow, " << s.probation_removals
+            << " features removed\n";
+      }
+    }
+    if (options.features.refresh_patch_every > 0) {
+      out << "  patch refresh    " << s.patch_refreshes << " templates re-extracted, "
+          << s.patch_refresh_rejections << " kept (outside the image or score too low)\n";
     }
     if (builder) {
       // The rest of the IMU stream (still in the synchronizer) completes the last edge.

@@ -165,5 +165,42 @@ TEST_CASE("vilma vio picks the euroc profile for a EuRoC dataset and meets the m
   std::filesystem::remove(traj);
 }
 
+
+// The opt-in options of issue 17 (session 36) report their counters: a user who turns on the
+// template refresh or the stereo probation sees what they did.
+TEST_CASE("vilma vio reports the patch refresh and the stereo probation when they are on") {
+  const std::string data = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
+  if (!std::filesystem::exists(data + "/mav0/cam1")) VILMA_SKIP(data << " (stereo) is absent");
+  std::ifstream in(std::string(VILMA_SOURCE_DIR) + "/config/estimator_euroc.yaml");
+  std::stringstream yaml;
+  yaml << in.rdbuf();
+  std::string text = yaml.str();
+  const auto set = [&text](const std::string& key, const std::string& value) {
+    const std::size_t at = text.find(key + ": 0 ");
+    REQUIRE(at != std::string::npos);
+    text.replace(at, key.size() + 3, key + ": " + value + " ");
+  };
+  set("refresh_patch_every", "5");
+  set("probation_frames", "3");
+  const std::filesystem::path tmp = std::filesystem::temp_directory_path();
+  const std::string pid = std::to_string(::getpid());
+  const std::string config = (tmp / ("vilma_vio_refresh_" + pid + ".yaml")).string();
+  const std::string traj = (tmp / ("vilma_vio_refresh_" + pid + ".txt")).string();
+  std::ofstream(config) << text;
+  std::ostringstream out, err;
+  REQUIRE(RunVioCommand({data, "--out", traj, "--config", config, "--stereo"}, out, err) ==
+          kExitOk);
+  INFO(out.str() << err.str());
+  CHECK_THAT(out.str(), Catch::Contains("templates re-extracted") &&
+                            Catch::Contains("stereo depths confirmed"));
+  CHECK_THAT(out.str(), !Catch::Contains("patch refresh    0 templates"));
+  // Off (the default): no such lines.
+  std::ostringstream plain;
+  REQUIRE(RunVioCommand({data, "--out", traj, "--stereo"}, plain, err) == kExitOk);
+  CHECK_THAT(plain.str(), !Catch::Contains("patch refresh") && !Catch::Contains("probation"));
+  std::filesystem::remove(config);
+  std::filesystem::remove(traj);
+}
+
 }  // namespace
 }  // namespace vilma::console
