@@ -255,6 +255,12 @@ void VisitDaemonFields(Options& o, Visitor&& v) {
   v("localization", "min_consistent_results", o.localization.global_frame.min_consistent_results);
   v("localization", "forgetting_factor", o.localization.global_frame.forgetting_factor);
   v("localization", "max_consecutive_gated", o.localization.global_frame.max_consecutive_gated);
+  v("localization", "drift_position_m_per_sqrt_s",
+    o.localization.global_frame.drift_position_m_per_sqrt_s);
+  v("localization", "drift_yaw_deg_per_sqrt_s",
+    o.localization.global_frame.drift_yaw_deg_per_sqrt_s);
+  v("localization", "min_sigma_position_m", o.localization.global_frame.min_sigma_position_m);
+  v("localization", "min_sigma_yaw_deg", o.localization.global_frame.min_sigma_yaw_deg);
   v("localization", "features",
     WithCodec(o.localization,
               [](const YamlNode& node, const char* key, LocalizationOptions* l) {

@@ -174,7 +174,7 @@ LocDecision LocClient::Decide(const LocResultItem& res) {
     return LocDecision::kRejectedInliers;
   }
   LocDecision d = LocDecision::kAccepted;
-  switch (global_frame_.Update(res.T_G_I, res.covariance_I, res.T_M_I)) {
+  switch (global_frame_.Update(res.T_G_I, res.covariance_I, res.T_M_I, res.t_ns)) {
     case estimator::GlobalFrameUpdate::kAccepted: c.Add(kLocTgmUpdates); break;
     case estimator::GlobalFrameUpdate::kRejectedGravity:
       c.Add(kLocRejectedGravity);

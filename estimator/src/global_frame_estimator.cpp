@@ -32,12 +32,28 @@ std::string GlobalFrameOptions::Validate() const {
     return "forgetting_factor: expected 0 < f <= 1";
   }
   if (max_consecutive_gated < 1) return "max_consecutive_gated: expected >= 1";
+  if (!(std::isfinite(drift_position_m_per_sqrt_s) && drift_position_m_per_sqrt_s >= 0.0)) {
+    return "drift_position_m_per_sqrt_s: expected >= 0 [m/sqrt(s)]";
+  }
+  if (!(std::isfinite(drift_yaw_deg_per_sqrt_s) && drift_yaw_deg_per_sqrt_s >= 0.0)) {
+    return "drift_yaw_deg_per_sqrt_s: expected >= 0 [deg/sqrt(s)]";
+  }
+  if ((drift_position_m_per_sqrt_s > 0.0) != (drift_yaw_deg_per_sqrt_s > 0.0)) {
+    return "drift_yaw_deg_per_sqrt_s: expected > 0 together with drift_position_m_per_sqrt_s "
+           "(both 0: the forgetting factor)";
+  }
+  if (!(std::isfinite(min_sigma_position_m) && min_sigma_position_m > 0.0)) {
+    return "min_sigma_position_m: expected > 0 [m]";
+  }
+  if (!(std::isfinite(min_sigma_yaw_deg) && min_sigma_yaw_deg > 0.0)) {
+    return "min_sigma_yaw_deg: expected > 0 [deg]";
+  }
   return "";
 }
 
 double GlobalFrameEstimator::Measure(const Transformation& T_G_I, const Matrix6d& covariance_I,
                                      const Transformation& T_M_I, Eigen::Vector4d* z,
-                                     Eigen::Matrix4d* R) {
+                                     Eigen::Matrix4d* R, const GlobalFrameOptions& options) {
   // T_G_M = T_G_I T_M_I^-1 (yaw and translation kept). A right perturbation of the result,
   // T_G_I Exp(xi), is the left perturbation Exp(Ad_{T_G_I} xi) T_G_I (the VIO's uncertainty of
   // T_M_I is neglected: small over the seconds between localizations; the floors cover it).
@@ -60,10 +76,9 @@ double GlobalFrameEstimator::Measure(const Transformation& T_G_I, const Matrix6d
   J(3, 5) = 1.0;
   const Matrix6d Ad = T_G_I.Adjoint();
   *R = J * Ad * covariance_I * Ad.transpose() * J.transpose();
-  R->diagonal() += Eigen::Vector4d(kMinSigmaPosition * kMinSigmaPosition,
-                                   kMinSigmaPosition * kMinSigmaPosition,
-                                   kMinSigmaPosition * kMinSigmaPosition,
-                                   kMinSigmaYaw * kMinSigmaYaw);
+  const double sp = options.min_sigma_position_m;
+  const double sy = options.min_sigma_yaw_deg * kDegToRad;
+  R->diagonal() += Eigen::Vector4d(sp * sp, sp * sp, sp * sp, sy * sy);
   const double c = std::clamp(R_G_M(2, 2), -1.0, 1.0);  // cos of the tilt of M's z axis in G
   return std::acos(c);
 }
@@ -72,16 +87,17 @@ void GlobalFrameEstimator::Reset() {
   has_estimate_ = false;
   consistent_ = 0;
   consecutive_gated_ = 0;
+  t_ns_ = 0;
   x_.setZero();
   info_.setZero();
 }
 
 GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
                                                const Matrix6d& covariance_I,
-                                               const Transformation& T_M_I) {
+                                               const Transformation& T_M_I, int64_t t_ns) {
   Eigen::Vector4d z;
   Eigen::Matrix4d R;
-  const double tilt = Measure(T_G_I, covariance_I, T_M_I, &z, &R);
+  const double tilt = Measure(T_G_I, covariance_I, T_M_I, &z, &R, options_);
   if (!(tilt <= options_.max_gravity_misalignment_deg * kDegToRad) || !z.allFinite() ||
       !R.allFinite()) {
     return GlobalFrameUpdate::kRejectedGravity;
@@ -91,6 +107,7 @@ GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
     has_estimate_ = true;
     consistent_ = 1;
     consecutive_gated_ = 0;
+    t_ns_ = t_ns;
     x_ = z;
     info_ = W;
   };
@@ -116,11 +133,26 @@ GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
     }
     return GlobalFrameUpdate::kRejectedJump;
   }
+  consecutive_gated_ = 0;
+  if (options_.random_walk()) {
+    // Kalman filter on a random-walk T_G_M: prediction P += Q dt over the time since the last
+    // fused result, then the update with R (in information form: Lambda = (P + Q dt)^-1 + W).
+    const double dt = std::max(0.0, 1e-9 * static_cast<double>(t_ns - t_ns_));
+    const double qp = options_.drift_position_m_per_sqrt_s;
+    const double qy = options_.drift_yaw_deg_per_sqrt_s * kDegToRad;
+    Eigen::Matrix4d P = info_.llt().solve(Eigen::Matrix4d::Identity());
+    P.diagonal() += dt * Eigen::Vector4d(qp * qp, qp * qp, qp * qp, qy * qy);
+    info_ = P.llt().solve(Eigen::Matrix4d::Identity()) + W;
+    t_ns_ = std::max(t_ns_, t_ns);
+    x_ += info_.llt().solve(W * dz);
+    x_[3] = WrapAngle(x_[3]);
+    ++consistent_;
+    return GlobalFrameUpdate::kAccepted;
+  }
   // Information filter with forgetting (a random walk on T_G_M that follows the VIO drift):
   //   Lambda_k = f Lambda_{k-1} + W,   x_k = x_{k-1} + Lambda_k^-1 W (z - x_{k-1}),
   // the inverse-covariance weighted average of the measurements with weights decaying by f
   // per update.
-  consecutive_gated_ = 0;
   info_ = options_.forgetting_factor * info_ + W;
   x_ += info_.llt().solve(W * dz);
   x_[3] = WrapAngle(x_[3]);

@@ -189,6 +189,10 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
              Catch::Contains("localization.max_gravity_misalignment_deg"));
   CHECK_THAT(ErrorOf(Replace(good, "forgetting_factor: 0.8", "forgetting_factor: 1.5")),
              Catch::Contains("localization.forgetting_factor"));
+  CHECK_THAT(ErrorOf(Replace(good, "drift_yaw_deg_per_sqrt_s: 0.0", "drift_yaw_deg_per_sqrt_s: 0.1")),
+             Catch::Contains("localization.drift_yaw_deg_per_sqrt_s"));
+  CHECK_THAT(ErrorOf(Replace(good, "min_sigma_position_m: 0.01", "min_sigma_position_m: 0")),
+             Catch::Contains("localization.min_sigma_position_m"));
   CHECK_THAT(ErrorOf(Replace(good, "max_consecutive_gated: 5", "max_consecutive_gated: 5\n  bogus: 1")),
              Catch::Contains("bogus"));
   CHECK_THAT(ErrorOf(Replace(good, "min_consistent_results: 2", "")),

@@ -94,5 +94,102 @@ TEST_CASE("T_G_M: the forgetting factor follows a drifting M", "[estimator][loca
   CHECK(std::abs(e.T_G_M().translation().x() - 0.05 * 39) < 0.25);
 }
 
+// Random-walk fusion (drift_* > 0): a Kalman filter with P += Q dt between results.
+GlobalFrameOptions RandomWalk(double q_p, double q_yaw_deg) {
+  GlobalFrameOptions o;
+  o.drift_position_m_per_sqrt_s = q_p;
+  o.drift_yaw_deg_per_sqrt_s = q_yaw_deg;
+  o.min_sigma_position_m = 1e-4;
+  o.min_sigma_yaw_deg = 1e-3;
+  return o;
+}
+
+constexpr int64_t kSec = 1000000000;
+
+TEST_CASE("T_G_M random walk: no drift is the plain average of equal-weight results",
+          "[estimator][localization]") {
+  GlobalFrameEstimator e(RandomWalk(1e-9, 1e-9));
+  const Transformation T_M_I = YawPose(0.0, {0, 0, 0});
+  const Matrix6d c = Cov(0.02, 0.3 * kDeg);
+  const double xs[] = {0.01, -0.02, 0.03, 0.0, 0.015};
+  double mean = 0.0;
+  for (int k = 0; k < 5; ++k) {
+    REQUIRE(e.Update(YawPose(0.001 * k, {xs[k], 0, 0}) * T_M_I, c, T_M_I, k * kSec) ==
+            GlobalFrameUpdate::kAccepted);
+    mean += xs[k] / 5.0;
+  }
+  Eigen::Vector4d z;
+  Eigen::Matrix4d R;
+  GlobalFrameEstimator::Measure(YawPose(0.0, {0, 0, 0}), c, T_M_I, &z, &R, RandomWalk(1e-9, 1e-9));
+  CHECK(e.state()[0] == Approx(mean).margin(1e-9));
+  CHECK(e.state()[3] == Approx(0.002).margin(1e-9));
+  CHECK(e.covariance()(0, 0) == Approx(R(0, 0) / 5.0).epsilon(1e-6));
+  CHECK(e.covariance()(3, 3) == Approx(R(3, 3) / 5.0).epsilon(1e-6));
+}
+
+TEST_CASE("T_G_M random walk: the prediction grows with the time between results",
+          "[estimator][localization]") {
+  const GlobalFrameOptions o = RandomWalk(0.01, 0.1);
+  const Transformation T_M_I = YawPose(0.0, {0, 0, 0});
+  const Matrix6d c = Cov(0.02, 0.3 * kDeg);
+  Eigen::Vector4d z;
+  Eigen::Matrix4d R;
+  GlobalFrameEstimator::Measure(T_M_I, c, T_M_I, &z, &R, o);
+  for (const double dt : {0.5, 4.0}) {
+    GlobalFrameEstimator e(o);
+    REQUIRE(e.Update(YawPose(0.0, {0, 0, 0}), c, T_M_I, 10 * kSec) == GlobalFrameUpdate::kAccepted);
+    const int64_t t1 = 10 * kSec + static_cast<int64_t>(dt * 1e9);
+    REQUIRE(e.Update(YawPose(0.02, {0.1, 0, 0}), c, T_M_I, t1) == GlobalFrameUpdate::kAccepted);
+    // Scalar Kalman filter per axis: P- = R + q^2 dt, gain K = P- / (P- + R), P+ = (1 - K) P-.
+    const double qy = 0.1 * kDeg;
+    const double pp = R(0, 0) + 0.01 * 0.01 * dt, py = R(3, 3) + qy * qy * dt;
+    const double kp = pp / (pp + R(0, 0)), ky = py / (py + R(3, 3));
+    CHECK(e.state()[0] == Approx(kp * 0.1).epsilon(1e-9));
+    CHECK(e.state()[3] == Approx(ky * 0.02).epsilon(1e-9));
+    CHECK(e.covariance()(0, 0) == Approx((1 - kp) * pp).epsilon(1e-9));
+    CHECK(e.covariance()(3, 3) == Approx((1 - ky) * py).epsilon(1e-9));
+  }
+}
+
+// Static truth, results at 1 Hz with sigma s or at 4 Hz with sigma 2 s (the same information
+// per second): the random walk converges to nearly the same covariance; the forgetting factor
+// keeps 1 / (1 - f) updates of information, i.e. four times less in the second case.
+TEST_CASE("T_G_M random walk: the estimate does not depend on the update rate",
+          "[estimator][localization]") {
+  const Transformation T_M_I = YawPose(0.0, {0, 0, 0});
+  auto run = [&](const GlobalFrameOptions& o, double hz, double sigma) {
+    GlobalFrameEstimator e(o);
+    std::mt19937 rng(5);
+    std::normal_distribution<double> n(0.0, 1.0);
+    for (int k = 0; k < static_cast<int>(120 * hz); ++k) {
+      const Transformation T_G_I = YawPose(0.0, {sigma * n(rng), sigma * n(rng), 0});
+      e.Update(T_G_I, Cov(sigma, 0.2 * kDeg), T_M_I, static_cast<int64_t>(k / hz * 1e9));
+    }
+    return e.covariance()(0, 0);
+  };
+  const GlobalFrameOptions rw = RandomWalk(0.005, 0.05);
+  const double p1 = run(rw, 1.0, 0.02), p4 = run(rw, 4.0, 0.04);
+  CHECK(p4 / p1 == Approx(1.0).margin(0.1));
+  GlobalFrameOptions forgetting = rw;
+  forgetting.drift_position_m_per_sqrt_s = forgetting.drift_yaw_deg_per_sqrt_s = 0.0;
+  const double f1 = run(forgetting, 1.0, 0.02), f4 = run(forgetting, 4.0, 0.04);
+  CHECK(f4 / f1 == Approx(4.0).epsilon(0.01));
+}
+
+TEST_CASE("T_G_M options: drift and floors validated", "[estimator][localization]") {
+  GlobalFrameOptions o = RandomWalk(0.01, 0.1);
+  CHECK(o.Validate().empty());
+  o.drift_yaw_deg_per_sqrt_s = 0.0;
+  CHECK(o.Validate().find("drift_yaw_deg_per_sqrt_s") == 0);
+  o = RandomWalk(-0.01, 0.1);
+  CHECK(o.Validate().find("drift_position_m_per_sqrt_s") == 0);
+  o = RandomWalk(0.01, 0.1);
+  o.min_sigma_position_m = 0.0;
+  CHECK(o.Validate().find("min_sigma_position_m") == 0);
+  o = RandomWalk(0.01, 0.1);
+  o.min_sigma_yaw_deg = std::nan("");
+  CHECK(o.Validate().find("min_sigma_yaw_deg") == 0);
+}
+
 }  // namespace
 }  // namespace vilma::estimator

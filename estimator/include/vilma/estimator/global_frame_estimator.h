@@ -2,8 +2,9 @@
 // T_G_I (with covariance) and the filter's T_M_I of the same frame, the transformation from the
 // odometry frame M to the map frame G. Both frames are gravity aligned, so T_G_M has 4 degrees
 // of freedom (x, y, z, yaw); measurements with roll/pitch are rejected, measurements that jump
-// from the estimate are gated, and the accepted ones are fused by inverse-covariance weighting
-// with a forgetting factor (an information filter on a random-walk state). Used by
+// from the estimate are gated, and the accepted ones are fused by inverse-covariance weighting,
+// either with a forgetting factor per update or (drift_* > 0) as a Kalman filter on a random-walk
+// T_G_M whose process noise grows with the time between results. Used by
 // vilma-estimatord's filter thread (LOC mode); not thread-safe.
 #pragma once
 
@@ -28,6 +29,18 @@ struct GlobalFrameOptions {
   double forgetting_factor = 0.8;
   // Consecutive gated (jumping) results after which the estimate is dropped and re-initialized.
   int max_consecutive_gated = 5;
+  // Random-walk fusion (both > 0; then forgetting_factor is not used): T_G_M drifts like the
+  // VIO, P += diag(q_p^2, q_p^2, q_p^2, q_yaw^2) dt between results dt seconds apart, so the
+  // estimate does not depend on how many results are accepted. 0 and 0 = the forgetting factor.
+  double drift_position_m_per_sqrt_s = 0.0;  // q_p [m/sqrt(s)]
+  double drift_yaw_deg_per_sqrt_s = 0.0;     // q_yaw [deg/sqrt(s)]
+  // Floors added to the measurement variances (the P3P covariance only holds the pixel noise,
+  // not map errors nor the VIO's own error at that frame) [m, deg].
+  double min_sigma_position_m = 0.01;
+  double min_sigma_yaw_deg = 0.2;
+  bool random_walk() const {
+    return drift_position_m_per_sqrt_s > 0.0 || drift_yaw_deg_per_sqrt_s > 0.0;
+  }
   std::string Validate() const;  // "" or "field: expectation"
 };
 
@@ -43,29 +56,33 @@ class GlobalFrameEstimator {
   explicit GlobalFrameEstimator(const GlobalFrameOptions& options) : options_(options) {}
 
   // T_G_I: the localization result, covariance_I of xi in T_G_I Exp(xi), xi = [rho; phi]
-  // [m^2, rad^2]; T_M_I: the filter's pose at that same frame.
+  // [m^2, rad^2]; T_M_I: the filter's pose at that same frame; t_ns: that frame's time (the
+  // random walk's dt; unused with the forgetting factor) [ns].
   GlobalFrameUpdate Update(const Transformation& T_G_I, const Matrix6d& covariance_I,
-                           const Transformation& T_M_I);
+                           const Transformation& T_M_I, int64_t t_ns = 0);
   // Drops the estimate (a new M frame: filter restart or reset).
   void Reset();
 
   // At least min_consistent_results consistent measurements fused.
   bool initialized() const { return consistent_ >= options_.min_consistent_results; }
   Transformation T_G_M() const;
-  // Covariance of (x, y, z, yaw) [m^2, rad^2].
+  // Covariance of (x, y, z, yaw) at the last fused result [m^2, rad^2].
   Eigen::Matrix4d covariance() const;
   const Eigen::Vector4d& state() const { return x_; }
 
   // The 4-DoF measurement z = (p_G_M, yaw) and its covariance from a result (public for tests).
   // Returns the tilt of R_G_M (angle between its z axis and G's) [rad].
+  // Floors: min_sigma_position_m / min_sigma_yaw_deg of the options.
   static double Measure(const Transformation& T_G_I, const Matrix6d& covariance_I,
-                        const Transformation& T_M_I, Eigen::Vector4d* z, Eigen::Matrix4d* R);
+                        const Transformation& T_M_I, Eigen::Vector4d* z, Eigen::Matrix4d* R,
+                        const GlobalFrameOptions& options = GlobalFrameOptions());
 
  private:
   GlobalFrameOptions options_;
   bool has_estimate_ = false;
   int consistent_ = 0;       // measurements fused since the last (re)start
   int consecutive_gated_ = 0;
+  int64_t t_ns_ = 0;         // time of the last fused result (random walk)
   Eigen::Vector4d x_ = Eigen::Vector4d::Zero();        // (x, y, z, yaw) [m, rad]
   Eigen::Matrix4d info_ = Eigen::Matrix4d::Zero();     // information matrix
 };
