@@ -13,7 +13,7 @@ stale() {
   return 1
 }
 
-# set_log SET: makes $work/SET.lcmlog, SET's LCM log (vilma-replay --to-log). A log is 0.4-1.7
+# set_log SET: makes $work/SET.lcmlog, SET's LCM log (vilma-replay --to-log). A log is 0.9-1.7
 # GB and the same for every work folder, so there is one copy per set, $VILMA_LOG_CACHE/SET.lcmlog
 # (default: a folder beside the datasets folder, DATASETS-lcmlogs), written under a temporary name
 # and renamed (a killed run leaves no half log), remade when older than the set's sim.yaml; the
