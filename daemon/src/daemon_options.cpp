@@ -165,12 +165,12 @@ template <typename Options, typename Read, typename Load>
 void ReadFileOrInline(const YamlNode& node, const char* key, std::string* file, Options* options,
                       Read read, Load load) {
   if (node.Has(key) && node.raw()[key].IsMap()) {
-    *options = read(node.Child(key));
+    *options = read(node.Child(key), *options);  // absent keys keep the built-in section's
     file->clear();
     return;
   }
   *file = Resolve(node.file(), node.Get<std::string>(key));
-  if (!file->empty()) *options = load(*file);
+  if (!file->empty()) *options = load(*file, *options);
 }
 
 // Such a section is written inline (a block), after a comment saying where the options came
@@ -180,8 +180,8 @@ std::string WriteFileOrInline(const char* what, const std::string& file, const s
          "\n" + yaml;
 }
 
-// The field list (core/options_fields.h): reader, --print-config's writer, every key required
-// (config/daemon.yaml lists them all). Options = DaemonOptions or const DaemonOptions; the
+// The field list (core/options_fields.h): reader, --print-config's writer; an absent key keeps
+// its default (config/daemon.yaml lists them all; docs/design.md "Options files"). Options = DaemonOptions or const DaemonOptions; the
 // codecs' readers take the struct that holds the members one key sets.
 template <typename Options, typename Visitor>
 void VisitDaemonFields(Options& o, Visitor&& v) {
@@ -292,7 +292,8 @@ void VisitDaemonFields(Options& o, Visitor&& v) {
 DaemonOptions ReadDaemonOptions(const YamlNode& root) {
   if (!root.IsMap()) root.Fail("", "a map of daemon options");
   DaemonOptions o;
-  ReadOptionFields(root, MissingKey::kRequired, &o,
+  // An absent key keeps its default (docs/design.md "Options files").
+  ReadOptionFields(root, MissingKey::kKeepDefault, &o,
                    [](auto& options, auto&& v) { VisitDaemonFields(options, v); });
   ThrowIfInvalid(o.Validate(), root.file());
   return o;

@@ -260,10 +260,11 @@ std::string FilterOptions::Validate() const {
   return "";
 }
 
-FilterOptions ReadFilterOptions(const YamlNode& root) {
-  FilterOptions options;
-  // Every key is required: a filter options file lists all of them (FilterOptionsToYaml).
-  ReadOptionFields(root, MissingKey::kRequired, &options,
+FilterOptions ReadFilterOptions(const YamlNode& root, const FilterOptions& base) {
+  FilterOptions options = base;
+  // An absent key keeps its default, so an options file written for an older vilma still
+  // loads; unknown keys and wrong types stay errors (docs/design.md "Options files").
+  ReadOptionFields(root, MissingKey::kKeepDefault, &options,
                    [](auto& o, auto&& v) { VisitOptions(o, v); });
   ThrowIfInvalid(options.Validate(), root.file());
   return options;
@@ -273,8 +274,8 @@ FilterOptions ParseFilterOptions(const std::string& yaml_text, const std::string
   return ReadFilterOptions(YamlNode::LoadString(yaml_text, source_name));
 }
 
-FilterOptions LoadFilterOptions(const std::string& path) {
-  return ReadFilterOptions(YamlNode::LoadFile(path));
+FilterOptions LoadFilterOptions(const std::string& path, const FilterOptions& base) {
+  return ReadFilterOptions(YamlNode::LoadFile(path), base);
 }
 
 std::string FilterOptionsToYaml(const FilterOptions& options) {

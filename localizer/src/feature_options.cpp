@@ -125,11 +125,12 @@ std::string KeyframeFeatureOptions::Validate() const {
   return "";
 }
 
-KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& root) {
+KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& root,
+                                                  const KeyframeFeatureOptions& base) {
   if (!root.IsMap()) root.Fail("", "a map of keyframe feature options");
-  KeyframeFeatureOptions options;
-  // Every key is required: a features file lists all of them (KeyframeFeatureOptionsToYaml).
-  ReadOptionFields(root, MissingKey::kRequired, &options,
+  KeyframeFeatureOptions options = base;
+  // An absent key keeps its default (docs/design.md "Options files").
+  ReadOptionFields(root, MissingKey::kKeepDefault, &options,
                    [](auto& o, auto&& v) { VisitOptions(o, v); });
   root.CheckValid(options.Validate());
   return options;
@@ -140,8 +141,9 @@ KeyframeFeatureOptions ParseKeyframeFeatureOptions(const std::string& yaml_text,
   return ReadKeyframeFeatureOptions(YamlNode::LoadString(yaml_text, source_name));
 }
 
-KeyframeFeatureOptions LoadKeyframeFeatureOptions(const std::string& path) {
-  return ReadKeyframeFeatureOptions(YamlNode::LoadFile(path));
+KeyframeFeatureOptions LoadKeyframeFeatureOptions(const std::string& path,
+                                                  const KeyframeFeatureOptions& base) {
+  return ReadKeyframeFeatureOptions(YamlNode::LoadFile(path), base);
 }
 
 std::string KeyframeFeatureOptionsToYaml(const KeyframeFeatureOptions& options) {

@@ -112,12 +112,15 @@ bool MapBuilderOptions::TrackSegmentFull(std::size_t observations, int64_t t_fir
          static_cast<double>(t_last_ns - t_first_ns) >= max_track_duration_s * 1e9;
 }
 
-MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root) {
+MapBuilderOptions ReadMapBuilderOptions(const YamlNode& root, const MapBuilderOptions& base) {
   if (!root.IsMap()) root.Fail("", "a map of map builder options");
-  MapBuilderOptions o;
-  // The features section has its own reader (and writer); the other fields are the list.
-  o.features = localizer::ReadKeyframeFeatureOptions(root.Child("features"));
-  ReadOptionFields(root, MissingKey::kRequired, &o,
+  MapBuilderOptions o = base;
+  // The features section has its own reader (and writer); the other fields are the list. An
+  // absent key or section keeps its default (docs/design.md "Options files").
+  if (root.Has("features")) {
+    o.features = localizer::ReadKeyframeFeatureOptions(root.Child("features"), base.features);
+  }
+  ReadOptionFields(root, MissingKey::kKeepDefault, &o,
                    [](auto& options, auto&& v) { VisitMapBuilderFields(options, v); });
   root.CheckValid(o.Validate());
   return o;
@@ -128,8 +131,8 @@ MapBuilderOptions ParseMapBuilderOptions(const std::string& yaml_text,
   return ReadMapBuilderOptions(YamlNode::LoadString(yaml_text, source_name));
 }
 
-MapBuilderOptions LoadMapBuilderOptions(const std::string& path) {
-  return ReadMapBuilderOptions(YamlNode::LoadFile(path));
+MapBuilderOptions LoadMapBuilderOptions(const std::string& path, const MapBuilderOptions& base) {
+  return ReadMapBuilderOptions(YamlNode::LoadFile(path), base);
 }
 
 std::string MapBuilderOptionsToYaml(const MapBuilderOptions& o) {

@@ -2,9 +2,12 @@
 
 #include <catch2/catch.hpp>
 #include <fstream>
+#include <iterator>
+#include <set>
 #include <sstream>
 
 #include "vilma/core/error.h"
+#include "test_yaml_keys.h"
 
 namespace vilma::daemon {
 namespace {
@@ -34,6 +37,16 @@ std::string ErrorOf(const std::string& text) {
 TEST_CASE("config/daemon.yaml equals the built-in defaults") {
   const DaemonOptions loaded = ParseDaemonOptions(DefaultConfigText(), "daemon.yaml");
   CHECK(DaemonOptionsToYaml(loaded) == DaemonOptionsToYaml(DaemonOptions()));
+  // ... and lists every key (absent keys would keep their defaults unnoticed).
+  // The sections that may name a file are written inline; the file names them ("" = built-in).
+  std::set<std::string> written = testing::YamlKeyPaths(DaemonOptionsToYaml(DaemonOptions()));
+  for (const std::string file_section : {"estimator.", "mapping.map_builder.",
+                                         "localization.features."}) {
+    for (auto it = written.begin(); it != written.end();) {
+      it = it->rfind(file_section, 0) == 0 ? written.erase(it) : std::next(it);
+    }
+  }
+  CHECK(testing::YamlKeyPaths(DefaultConfigText()) == written);
   CHECK(DaemonOptions().Validate().empty());
 }
 
@@ -60,7 +73,8 @@ TEST_CASE("bad daemon configs are rejected naming the key") {
              Catch::Contains("queues.log_slot_wait_s"));
   CHECK_THAT(ErrorOf(Replace(good, "max_pending_frames: 8", "max_pending_frames: 8\n  bogus: 1")),
              Catch::Contains("bogus"));
-  CHECK_THAT(ErrorOf(Replace(good, "status_period_s: 1.0", "")), Catch::Contains("status_period_s"));
+  CHECK(ParseDaemonOptions(Replace(good, "status_period_s: 1.0", ""), "daemon.yaml").status_period_s ==
+        DaemonOptions().status_period_s);  // absent: the default
   CHECK_THAT(ErrorOf(Replace(good, "estimator: \"\"", "estimator: {max_features: 3}")),
              Catch::Contains("estimator"));
   CHECK_THAT(ErrorOf(Replace(good, "estimator: \"\"", "estimator: no-such-file.yaml")),
@@ -96,7 +110,7 @@ TEST_CASE("stereo: the daemon key turns on the estimator's stereo, validated, re
   // Mono with one subscribed camera stays valid.
   CHECK(ErrorOf(Replace(good, "cameras: [CAM0, CAM1]", "cameras: [CAM0]")).empty());
   CHECK_THAT(ErrorOf(Replace(good, "stereo: false", "stereo: 1.5")), Catch::Contains("stereo"));
-  CHECK_THAT(ErrorOf(Replace(good, "stereo: false", "")), Catch::Contains("stereo"));
+  CHECK_FALSE(ParseDaemonOptions(Replace(good, "stereo: false", ""), "daemon.yaml").stereo);  // absent
 }
 
 TEST_CASE("the estimator options can be given inline") {
@@ -146,8 +160,16 @@ TEST_CASE("map building options: strict, validated, read back", "[daemon][mappin
              Catch::Contains("mission_seed"));
   CHECK_THAT(ErrorOf(Replace(good, "mission_seed: 0", "mission_seed: 0\n  bogus_key: 1")),
              Catch::Contains("bogus_key"));
-  CHECK_THAT(ErrorOf(Replace(good, "map_builder: \"\"", "map_builder: {vertex_rate_hz: 10}")),
-             Catch::Contains("map_builder"));
+  // An inline builder section lists only what differs from the defaults.
+  CHECK_THAT(ErrorOf(Replace(good, "map_builder: \"\"", "map_builder: {vertex_rate_hz: -1}")),
+             Catch::Contains("vertex_rate_hz"));
+  {
+    const DaemonOptions partial_builder = ParseDaemonOptions(
+        Replace(good, "map_builder: \"\"", "map_builder: {vertex_rate_hz: 4}"), "daemon.yaml");
+    CHECK(partial_builder.mapping.map_builder.vertex_rate_hz == 4);
+    CHECK(partial_builder.mapping.map_builder.landmark_quality.min_observers ==
+          mapping::MapBuilderOptions().landmark_quality.min_observers);
+  }
   CHECK_THAT(ErrorOf(Replace(good, "map_builder: \"\"", "map_builder: no-such-builder.yaml")),
              Catch::Contains("no-such-builder.yaml"));
 
@@ -195,8 +217,14 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
              Catch::Contains("localization.min_sigma_position_m"));
   CHECK_THAT(ErrorOf(Replace(good, "max_consecutive_gated: 5", "max_consecutive_gated: 5\n  bogus: 1")),
              Catch::Contains("bogus"));
-  CHECK_THAT(ErrorOf(Replace(good, "min_consistent_results: 2", "")),
-             Catch::Contains("min_consistent_results"));
+  // An absent key keeps its default (a daemon.yaml of an older vilma still loads).
+  CHECK(ParseDaemonOptions(Replace(Replace(good, "min_consistent_results: 2", ""),
+                                   "forgetting_factor: 0.8", "forgetting_factor: 0.5"),
+                           "daemon.yaml")
+            .localization.global_frame.min_consistent_results == DaemonOptions().localization.global_frame.min_consistent_results);
+  CHECK(ParseDaemonOptions(Replace(good, "forgetting_factor: 0.8", "forgetting_factor: 0.5"),
+                           "daemon.yaml")
+            .localization.global_frame.forgetting_factor == 0.5);
   // Read back (the map path is absolute after the round trip).
   DaemonOptions o;
   o.localization.enabled = true;
@@ -252,7 +280,14 @@ TEST_CASE("localization query features: built-in profile, file, inline, config f
   CHECK(back.localization.features.detector.max_keypoints == 900);
   CHECK_THAT(ErrorOf(Replace(effective, "max_keypoints: 900", "max_keypoints: -1")),
              Catch::Contains("max_keypoints"));
-  CHECK_THAT(ErrorOf(Replace(effective, "max_keypoints: 900", "")), Catch::Contains("max_keypoints"));
+  // An absent key of an inline section keeps the built-in section's value (the localization
+  // profile's, not the keyframe defaults').
+  const DaemonOptions without_num_levels =
+      ParseDaemonOptions(Replace(effective, "num_levels: 2", ""), "effective.yaml");
+  CHECK(localizer::LocalizationQueryFeatureOptions().detector.num_levels == 3);
+  CHECK(localizer::KeyframeFeatureOptions().detector.num_levels == 1);
+  CHECK(without_num_levels.localization.features.detector.num_levels == 3);
+  CHECK(without_num_levels.localization.features.detector.max_keypoints == 900);
 }
 
 TEST_CASE("the VILMA_LOC channel is configurable and validated", "[daemon][localization]") {
@@ -263,7 +298,9 @@ TEST_CASE("the VILMA_LOC channel is configurable and validated", "[daemon][local
              Catch::Contains("channels.localization"));
   CHECK_THAT(ErrorOf(Replace(good, "localization: VILMA_LOC", "localization: \"\"")),
              Catch::Contains("channels.localization"));
-  CHECK_THAT(ErrorOf(Replace(good, "  localization: VILMA_LOC", "")),
+  CHECK(ParseDaemonOptions(Replace(good, "  localization: VILMA_LOC", ""), "daemon.yaml")
+            .channels.localization == "VILMA_LOC");  // absent: the default
+  CHECK_THAT(ErrorOf(Replace(good, "  localization: VILMA_LOC", "  localisation: VILMA_LOC")),
              Catch::Contains("localization"));
   DaemonOptions o;
   o.channels.localization = "LOC2";

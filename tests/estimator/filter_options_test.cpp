@@ -5,6 +5,8 @@
 #include <regex>
 #include <sstream>
 
+#include "test_yaml_keys.h"
+
 namespace vilma::estimator {
 namespace {
 
@@ -20,6 +22,15 @@ TEST_CASE("config/estimator.yaml loads and equals the built-in defaults") {
   const FilterOptions loaded =
       LoadFilterOptions(std::string(VILMA_SOURCE_DIR) + "/config/estimator.yaml");
   CHECK(FilterOptionsToYaml(loaded) == FilterOptionsToYaml(FilterOptions()));
+  // ... and lists every key (absent keys would keep their defaults unnoticed); so does the
+  // euroc profile's file.
+  CHECK(vilma::testing::YamlKeyPaths(ReadConfig()) ==
+        vilma::testing::YamlKeyPaths(FilterOptionsToYaml(FilterOptions())));
+  std::ifstream euroc(std::string(VILMA_SOURCE_DIR) + "/config/estimator_euroc.yaml");
+  std::stringstream euroc_text;
+  euroc_text << euroc.rdbuf();
+  CHECK(vilma::testing::YamlKeyPaths(euroc_text.str()) ==
+        vilma::testing::YamlKeyPaths(FilterOptionsToYaml(FilterOptions())));
   CHECK(FilterOptions().Validate().empty());
 }
 
@@ -64,7 +75,19 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
       Catch::Contains("f.yaml: features.max_features") && Catch::Contains("integer"));
   CHECK_THROWS_WITH(
       ParseFilterOptions(replace("  max_features: 25", "  max_feature: 25"), "f.yaml"),
-      Catch::Contains("f.yaml: features.max_features"));  // missing key
+      Catch::Contains("f.yaml: features.max_feature"));  // a misspelt key is unknown
+  // An absent key keeps its default (an options file of an older vilma still loads).
+  const std::string written = FilterOptionsToYaml(FilterOptions());
+  const std::string max_features_line = "  max_features: 25\n";
+  REQUIRE(written.find(max_features_line) != std::string::npos);
+  std::string without_line = written;
+  without_line.erase(written.find(max_features_line), max_features_line.size());
+  CHECK(ParseFilterOptions(without_line, "f.yaml").features.max_features ==
+        FilterOptions().features.max_features);
+  FilterOptions forty;
+  forty.features.max_features = 40;
+  CHECK(FilterOptionsToYaml(ParseFilterOptions("features:\n  max_features: 40\n", "f.yaml")) ==
+        FilterOptionsToYaml(forty));
   CHECK_THROWS_WITH(
       ParseFilterOptions(replace("  max_speed: 30.0", "  max_speed: 30.0\n  color: red"),
                          "f.yaml"),

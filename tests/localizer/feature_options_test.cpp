@@ -1,9 +1,12 @@
 #include "vilma/localizer/feature_options.h"
 
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "vilma/core/error.h"
+#include "test_yaml_keys.h"
 
 namespace vilma::localizer {
 namespace {
@@ -54,12 +57,17 @@ TEST_CASE("keyframe feature options: strict YAML names file, key and expectation
   std::string e = ErrorOf(Replace(yaml, "  ratio:", "  ratoi: 0.8\n  ratio:"));
   CHECK(e.find("features.yaml") != std::string::npos);
   CHECK(e.find("ratoi") != std::string::npos);
-  // Missing key.
-  e = ErrorOf(Replace(yaml, "  border_px: 24\n", ""));
-  CHECK(e.find("border_px") != std::string::npos);
-  // Missing section.
-  e = ErrorOf(yaml.substr(0, yaml.find("ransac:")));
-  CHECK(e.find("ransac") != std::string::npos);
+  // An absent key or section keeps its default (a features file of an older vilma still loads);
+  // what is there is read.
+  const KeyframeFeatureOptions defaults;
+  const KeyframeFeatureOptions partial = ParseKeyframeFeatureOptions(
+      Replace(Replace(yaml, "  border_px: 24\n", ""), "max_keypoints: 600", "max_keypoints: 300"),
+      "features.yaml");
+  CHECK(partial.detector.border_px == defaults.detector.border_px);
+  CHECK(partial.detector.max_keypoints == 300);
+  const KeyframeFeatureOptions no_ransac =
+      ParseKeyframeFeatureOptions(yaml.substr(0, yaml.find("ransac:")), "features.yaml");
+  CHECK(KeyframeFeatureOptionsToYaml(no_ransac) == yaml);
   // Wrong type.
   e = ErrorOf(Replace(yaml, "max_keypoints: 600", "max_keypoints: many"));
   CHECK(e.find("max_keypoints") != std::string::npos);
@@ -115,6 +123,12 @@ TEST_CASE("keyframe feature options: config/keyframe_features.yaml holds the def
   const KeyframeFeatureOptions o =
       LoadKeyframeFeatureOptions(std::string(VILMA_SOURCE_DIR) + "/config/keyframe_features.yaml");
   CHECK(KeyframeFeatureOptionsToYaml(o) == KeyframeFeatureOptionsToYaml(KeyframeFeatureOptions()));
+  // ... and lists every key (absent keys would keep their defaults unnoticed).
+  std::ifstream in(std::string(VILMA_SOURCE_DIR) + "/config/keyframe_features.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  CHECK(vilma::testing::YamlKeyPaths(text.str()) ==
+        vilma::testing::YamlKeyPaths(KeyframeFeatureOptionsToYaml(KeyframeFeatureOptions())));
 }
 
 }  // namespace

@@ -1,9 +1,12 @@
 #include "vilma/mapping/map_builder_options.h"
 
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <sstream>
 #include <string>
 
 #include "vilma/core/error.h"
+#include "test_yaml_keys.h"
 
 using vilma::InputError;
 using namespace vilma::mapping;
@@ -25,6 +28,12 @@ TEST_CASE("map builder options: defaults are valid and config/map_builder.yaml h
   const MapBuilderOptions file =
       LoadMapBuilderOptions(std::string(VILMA_SOURCE_DIR) + "/config/map_builder.yaml");
   CHECK(MapBuilderOptionsToYaml(file) == MapBuilderOptionsToYaml(defaults));
+  // ... and lists every key (absent keys would keep their defaults unnoticed).
+  std::ifstream in(std::string(VILMA_SOURCE_DIR) + "/config/map_builder.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  CHECK(vilma::testing::YamlKeyPaths(text.str()) ==
+        vilma::testing::YamlKeyPaths(MapBuilderOptionsToYaml(defaults)));
 }
 
 TEST_CASE("map builder options: YAML round trip", "[mapping]") {
@@ -68,9 +77,18 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
       ParseMapBuilderOptions(
           Replace(good, "  min_observers: 4\n", "  min_observers: 4\n  bogus: 2\n"), "m.yaml"),
       Catch::Contains("bogus"));
-  // Missing key.
-  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "  min_distance_m: 0.05\n", ""), "m.yaml"),
-                    Catch::Contains("min_distance_m"));
+  // An absent key keeps its default (an options file of an older vilma still loads), the keys
+  // that are there are read; an absent section keeps all of its defaults.
+  const MapBuilderOptions defaults;
+  const MapBuilderOptions partial = ParseMapBuilderOptions(
+      Replace(Replace(good, "  min_distance_m: 0.05\n", ""), "min_observers: 4", "min_observers: 6"),
+      "m.yaml");
+  CHECK(partial.landmark_quality.min_distance_m == defaults.landmark_quality.min_distance_m);
+  CHECK(partial.landmark_quality.min_observers == 6);
+  const MapBuilderOptions only_rate = ParseMapBuilderOptions("vertex_rate_hz: 4\n", "m.yaml");
+  CHECK(only_rate.vertex_rate_hz == 4);
+  CHECK(MapBuilderOptionsToYaml(only_rate) ==
+        Replace(good, "vertex_rate_hz: 10", "vertex_rate_hz: 4"));
   // Validate failures name the field path.
   CHECK_THROWS_WITH(
       ParseMapBuilderOptions(Replace(good, "vertex_rate_hz: 10", "vertex_rate_hz: -1"), "m.yaml"),
@@ -91,8 +109,8 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
                                                    "max_track_duration_s: -1"),
                                            "m.yaml"),
                     Catch::Contains("max_track_duration_s"));
-  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100\n", ""), "m.yaml"),
-                    Catch::Contains("max_track_vertices"));
+  CHECK(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100\n", ""), "m.yaml")
+            .max_track_vertices == defaults.max_track_vertices);
   CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "method: \"none\"", "method: \"klt\""),
                                            "m.yaml"),
                     Catch::Contains("track_refinement.method"));
@@ -100,8 +118,8 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
                                                    "on_failure: \"drop\""),
                                            "m.yaml"),
                     Catch::Contains("track_refinement.on_failure"));
-  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "  on_failure: \"keep\"\n", ""), "m.yaml"),
-                    Catch::Contains("on_failure"));
+  CHECK(ParseMapBuilderOptions(Replace(good, "  on_failure: \"keep\"\n", ""), "m.yaml")
+            .track_refinement.on_failure == defaults.track_refinement.on_failure);
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: [0, 0]"), "m"),
                   InputError);
   CHECK_THROWS_AS(ParseMapBuilderOptions(Replace(good, "cameras: []", "cameras: 3"), "m"),

@@ -180,11 +180,12 @@ struct FilterOptions {
   std::string Validate() const;
 };
 
-// Strict loading: every key of config/estimator.yaml must be present, unknown keys are
-// errors, and the values must pass Validate(); throws InputError naming file, key, expectation.
-FilterOptions LoadFilterOptions(const std::string& path);
+// Strict loading: unknown keys are errors, an absent key keeps its value in `base` (the
+// built-in defaults unless given; docs/design.md "Options files"), and the values must pass
+// Validate(); throws InputError naming file, key, expectation.
+FilterOptions LoadFilterOptions(const std::string& path, const FilterOptions& base = {});
 FilterOptions ParseFilterOptions(const std::string& yaml_text, const std::string& source_name);
-FilterOptions ReadFilterOptions(const YamlNode& root);
+FilterOptions ReadFilterOptions(const YamlNode& root, const FilterOptions& base = {});
 // The effective options as YAML (same layout as config/estimator.yaml), printed at start.
 std::string FilterOptionsToYaml(const FilterOptions& options);
 

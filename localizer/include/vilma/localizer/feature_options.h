@@ -118,12 +118,15 @@ struct KeyframeFeatureOptions {
 // (docs/daemon.md "Query features").
 KeyframeFeatureOptions LocalizationQueryFeatureOptions();
 
-// Strict readers: every field of every section is required; throws InputError naming the file,
-// the key and the expectation (also for Validate() failures).
-KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& node);
+// Strict readers: unknown keys are errors, an absent key or section keeps its value in `base`
+// (the built-in defaults unless given: docs/design.md "Options files"); throws InputError
+// naming the file, the key and the expectation (also for Validate() failures).
+KeyframeFeatureOptions ReadKeyframeFeatureOptions(const YamlNode& node,
+                                                  const KeyframeFeatureOptions& base = {});
 KeyframeFeatureOptions ParseKeyframeFeatureOptions(const std::string& yaml_text,
                                                    const std::string& source_name);
-KeyframeFeatureOptions LoadKeyframeFeatureOptions(const std::string& path);
+KeyframeFeatureOptions LoadKeyframeFeatureOptions(const std::string& path,
+                                                  const KeyframeFeatureOptions& base = {});
 // YAML text that ReadKeyframeFeatureOptions reads back to the same options.
 std::string KeyframeFeatureOptionsToYaml(const KeyframeFeatureOptions& options);
 

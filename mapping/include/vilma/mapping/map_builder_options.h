@@ -91,12 +91,14 @@ struct MapBuilderOptions {
   std::string Validate() const;
 };
 
-// Strict readers (every key required, unknown keys are errors); throw InputError naming the
+// Strict readers (unknown keys are errors, an absent key keeps its value in `base`, the
+// built-in defaults unless given: docs/design.md "Options files"); throw InputError naming the
 // file, the key and the expectation (also for Validate() failures).
-MapBuilderOptions ReadMapBuilderOptions(const YamlNode& node);
+MapBuilderOptions ReadMapBuilderOptions(const YamlNode& node, const MapBuilderOptions& base = {});
 MapBuilderOptions ParseMapBuilderOptions(const std::string& yaml_text,
                                          const std::string& source_name);
-MapBuilderOptions LoadMapBuilderOptions(const std::string& path);
+MapBuilderOptions LoadMapBuilderOptions(const std::string& path,
+                                        const MapBuilderOptions& base = {});
 // YAML text that ReadMapBuilderOptions reads back to the same options.
 std::string MapBuilderOptionsToYaml(const MapBuilderOptions& options);
 
