@@ -82,6 +82,41 @@ TEST_CASE("EvaluateMap: a moved map shows the shift, posyaw alignment removes it
   CHECK(e.surface_distance_m.max < 1e-9);
 }
 
+TEST_CASE("EvaluateMap: the reprojection error per keypoint sigma class") {
+  testing::GeometricMap g = testing::MakeGeometricMap(6, 30);
+  for (const auto& id : g.landmarks) g.map.landmark(id).quality = mapstore::LandmarkQuality::kGood;
+  const std::vector<GroundTruthState> gt = TrueStates(g.map);
+  MapEvaluationOptions o;
+  o.alignment = AlignmentType::kNone;
+  // One sigma everywhere: one class, no extra report lines.
+  MapEvaluation e = EvaluateMap(g.map, g.map.mission_ids()[0], gt, nullptr, o);
+  REQUIRE(e.reprojection_by_sigma.size() == 1);
+  CHECK(e.reprojection_by_sigma[0].reprojection_px.count == e.reprojection_px.count);
+  CHECK_THAT(e.FullReport(), !Catch::Contains("keypoints at sigma"));
+  // The first vertex's keypoints at 0.15 px, moved by 0.5 px; the rest exact at 1 px.
+  const mapstore::VertexId first = g.map.VertexChain(g.map.mission_ids()[0])[0];
+  std::size_t moved = 0;
+  for (mapstore::VisualFrame& f : g.map.vertex(first).frames) {
+    for (mapstore::Keypoint& k : f.keypoints) {
+      k.sigma_px = 0.15;
+      k.uv.x() += 0.5;
+      ++moved;
+    }
+  }
+  REQUIRE(moved > 0);
+  e = EvaluateMap(g.map, g.map.mission_ids()[0], gt, nullptr, o);
+  REQUIRE(e.reprojection_by_sigma.size() == 2);
+  CHECK(e.reprojection_by_sigma[0].sigma_px == 0.15);
+  CHECK(e.reprojection_by_sigma[0].reprojection_px.median == Approx(0.5));
+  CHECK(e.reprojection_by_sigma[1].sigma_px == 1.0);
+  CHECK(e.reprojection_by_sigma[1].reprojection_px.max < 1e-6);
+  CHECK(e.reprojection_by_sigma[0].reprojection_px.count +
+            e.reprojection_by_sigma[1].reprojection_px.count ==
+        e.reprojection_px.count);
+  CHECK_THAT(e.FullReport(), Catch::Contains("keypoints at sigma 0.15 px"));
+  CHECK_THAT(e.ToJson(), Catch::Contains("\"reprojection_by_sigma\": [{\"sigma_px\": 0.15"));
+}
+
 TEST_CASE("EvaluateMap: bad input") {
   testing::GeometricMap g = testing::MakeGeometricMap(4, 10);
   const auto m = g.map.mission_ids()[0];

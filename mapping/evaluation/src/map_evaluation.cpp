@@ -4,6 +4,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iomanip>
+#include <map>
 #include <sstream>
 #include <stdexcept>
 
@@ -94,6 +95,7 @@ MapEvaluation EvaluateMap(const VIMap& map, const mapstore::MissionId& mission,
 
   // Good landmarks: reprojection error per observation, distance to the world's surfaces.
   std::vector<double> pixels, distances;
+  std::map<double, std::vector<double>> pixels_by_sigma;  // sigma rounded to 1e-4 px
   for (const LandmarkId& id : map.landmark_ids(mission)) {
     if (map.landmark(id).quality != mapstore::LandmarkQuality::kGood) continue;
     ++e.good_landmarks;
@@ -103,6 +105,7 @@ MapEvaluation EvaluateMap(const VIMap& map, const mapstore::MissionId& mission,
       const Camera::ProjectionResult r = o.camera->Project(o.T_M_C.inverse() * p_G, &uv);
       if (r == Camera::ProjectionResult::kValid || r == Camera::ProjectionResult::kOutsideImage) {
         pixels.push_back((uv - o.uv).norm());
+        pixels_by_sigma[std::round(o.sigma_px * 1e4) / 1e4].push_back(pixels.back());
       }
     }
     if (world != nullptr) {
@@ -111,6 +114,9 @@ MapEvaluation EvaluateMap(const VIMap& map, const mapstore::MissionId& mission,
     }
   }
   e.reprojection_px = ComputeErrorStats(pixels);
+  for (const auto& [sigma, values] : pixels_by_sigma) {
+    e.reprojection_by_sigma.push_back({sigma, ComputeErrorStats(values)});
+  }
   e.has_world = world != nullptr;
   e.surface_distance_m = ComputeErrorStats(distances);
   return e;
@@ -134,6 +140,12 @@ std::string MapEvaluation::FullReport() const {
       << "  accel bias [m/s^2]:  " << Stats(accel_bias_error, 1.0, 4) << "\n"
       << "  good landmarks " << good_landmarks << ", reprojection [px]: "
       << Stats(reprojection_px, 1.0, 3) << "\n";
+  if (reprojection_by_sigma.size() > 1) {
+    for (const SigmaClass& c : reprojection_by_sigma) {
+      out << "    keypoints at sigma " << c.sigma_px << " px (" << c.reprojection_px.count
+          << "): " << Stats(c.reprojection_px, 1.0, 3) << "\n";
+    }
+  }
   if (has_world) {
     out << "  good landmarks to the true surfaces [cm]: "
         << Stats(surface_distance_m, 100.0, 2) << "\n";
@@ -152,7 +164,14 @@ std::string MapEvaluation::ToJson() const {
       << ", \"gyro_bias_error\": " << JsonStats(gyro_bias_error)
       << ", \"accel_bias_error\": " << JsonStats(accel_bias_error)
       << ", \"good_landmarks\": " << good_landmarks
-      << ", \"reprojection_px\": " << JsonStats(reprojection_px);
+      << ", \"reprojection_px\": " << JsonStats(reprojection_px)
+      << ", \"reprojection_by_sigma\": [";
+  for (std::size_t k = 0; k < reprojection_by_sigma.size(); ++k) {
+    out << (k == 0 ? "" : ", ") << "{\"sigma_px\": " << reprojection_by_sigma[k].sigma_px
+        << ", \"reprojection_px\": " << JsonStats(reprojection_by_sigma[k].reprojection_px)
+        << "}";
+  }
+  out << "]";
   if (has_world) out << ", \"surface_distance_m\": " << JsonStats(surface_distance_m);
   out << "}";
   return out.str();

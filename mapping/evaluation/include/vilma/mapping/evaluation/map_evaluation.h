@@ -32,6 +32,14 @@ struct MapEvaluation {
   ErrorStats accel_bias_error;     // |b_a - b_a,gt| [m/s^2]
   std::size_t good_landmarks = 0;  // stored in the mission
   ErrorStats reprojection_px;      // per observation of a good landmark [px]
+  // The same split by the observations' keypoint noise (Keypoint::sigma_px, e.g. 0.15 px for a
+  // track-refined keypoint, 1 px for a detector's; docs/mapping.md "Keypoint noise in the
+  // map"), ascending: how far each class's residuals are from its declared sigma [px].
+  struct SigmaClass {
+    double sigma_px = 0.0;
+    ErrorStats reprojection_px;
+  };
+  std::vector<SigmaClass> reprojection_by_sigma;
   bool has_world = false;
   ErrorStats surface_distance_m;   // good landmarks to the world's surfaces (has_world)
   std::string BriefReport() const;  // the first line: mission, vertices, matched, alignment
