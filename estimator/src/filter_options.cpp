@@ -108,6 +108,9 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("stereo", "max_disagreements", o.stereo.max_disagreements);
   v("stereo", "probation_frames", o.stereo.probation_frames);
   v("stereo", "probation_max_mean_nis", o.stereo.probation_max_mean_nis);
+  v("stereo", "persistent_disparity_sigma", o.stereo.persistent_disparity_sigma);
+  v("stereo", "max_features", o.stereo.max_features);
+  v("stereo", "detect_below", o.stereo.detect_below);
 }
 
 }  // namespace
@@ -239,6 +242,12 @@ std::string StereoOptions::Validate() const {
   if (max_disagreements < 0) return "max_disagreements: expected >= 0 (0: off)";
   if (probation_frames < 0) return "probation_frames: expected >= 0 (0: off)";
   VILMA_RETURN_IF_ERROR(ValidatePositive("probation_max_mean_nis", probation_max_mean_nis));
+  VILMA_RETURN_IF_ERROR(
+      ValidateNonNegative("persistent_disparity_sigma", persistent_disparity_sigma));
+  if (max_features < 0 || max_features > 1000) {
+    return "max_features: expected 0 (features.max_features) or 1..1000";
+  }
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("detect_below", detect_below, 0));
   return "";
 }
 
@@ -250,6 +259,11 @@ std::string FilterOptions::Validate() const {
   if (!(e = features.Validate()).empty()) return "features." + e;
   if (!(e = health.Validate()).empty()) return "health." + e;
   if (!(e = stereo.Validate()).empty()) return "stereo." + e;
+  if (stereo.enabled) {  // the effective counts with stereo (StereoOptions::max_features)
+    const int slots = stereo.max_features > 0 ? stereo.max_features : features.max_features;
+    const int below = stereo.detect_below > 0 ? stereo.detect_below : features.detect_below;
+    if (below > slots) return "stereo.detect_below: expected <= the stereo feature slots";
+  }
   if (estimate_extrinsics && (init.sigma_extrinsic_rotation <= 0.0 ||
                               init.sigma_extrinsic_translation <= 0.0)) {
     return "init.sigma_extrinsic_rotation: expected > 0 when estimate_extrinsics is true";
@@ -293,6 +307,8 @@ FilterOptions FilterOptionsProfile(const std::string& name) {
     // (0.5 px per frame) and more features meet issue 17's targets there (docs/estimator.md).
     o.noise.bearing = 0.005;
     o.features.max_features = 40;
+    o.stereo.max_features = 0;  // stereo with the same 40 slots (not measured with 60)
+    o.stereo.detect_below = 0;
     return o;
   }
   throw InputError(FormatInputError("estimator options profile", name,

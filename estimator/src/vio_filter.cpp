@@ -34,6 +34,10 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
     stereo_ = true;
     second_camera_ = rig.cameras[static_cast<std::size_t>(options.stereo.camera)];
     T_C2_C1_ = second_camera_.T_I_C.inverse() * camera_.T_I_C;
+    // stereo.max_features / detect_below replace the mono counts (0: kept).
+    const StereoOptions& so = options.stereo;
+    if (so.max_features > 0) options_.features.max_features = so.max_features;
+    if (so.detect_below > 0) options_.features.detect_below = so.detect_below;
   }
   initializer_ = VisualInertialInitializer(camera_, rig.imu.gravity_magnitude, options.init.dynamic);
   // The detector ranks candidates with the tracker's own patch.
@@ -52,7 +56,7 @@ VioFilter::VioFilter(const SensorRig& rig, int camera_index, const FilterOptions
   }
   if (options.estimate_time_offset) noise_.time_offset = options.noise.time_offset;
 
-  const int slots = options.features.max_features;
+  const int slots = options_.features.max_features;
   x_.features.assign(static_cast<std::size_t>(slots), FeatureState());
   x_.q_I_C = camera_.T_I_C.rotation();
   x_.p_I_C = camera_.T_I_C.translation();

@@ -61,7 +61,8 @@ bool VioFilter::UpdateFeatureInSecond(int slot) {
   // 1. Outlier check in C2: patch alignment from the prediction, Mahalanobis gate.
   const AlignmentResult aligned =
       AlignPatch(track.patch, pyramid2_, pr.pixel, W, po, uo.align_iterations);
-  const double persistent = PersistentPixelVariance(slot);
+  // The template's persistent error and C2's own (stereo.persistent_disparity_sigma).
+  const double persistent = PersistentPixelVariance(slot) + PersistentDisparityVariance(slot);
   const Eigen::Matrix2d S_pix =
       J0 * P_sub * J0.transpose() +
       (uo.pixel_sigma * uo.pixel_sigma + persistent) * Eigen::Matrix2d::Identity() +
@@ -183,6 +184,9 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   // cameras (correlation 1).
   const double persistent = PersistentPixelVariance(slot);
   const double persistent_sigma = std::sqrt(persistent);
+  // stereo.persistent_disparity_sigma: C2's own persistent error, in C2's rows only.
+  const double disparity = PersistentDisparityVariance(slot);
+  const Eigen::Matrix2d Z2 = Eigen::Matrix2d::Zero();
 
   // 1. Each camera's outlier check exactly as in its separate update (alignment from the
   //    prediction, Mahalanobis gate on the aligned pixel).
@@ -220,7 +224,8 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   const AlignmentResult aligned2 =
       AlignPatch(track.patch, pyramid2_, pr2.pixel, W2, po, uo.align_iterations);
   const Eigen::Matrix2d S2 =
-      J02 * P_sub * J02.transpose() + (px2 + persistent + 0.25) * Eigen::Matrix2d::Identity();
+      J02 * P_sub * J02.transpose() +
+      (px2 + persistent + disparity + 0.25) * Eigen::Matrix2d::Identity();
   const Eigen::Vector2d e2 = aligned2.pixel - pr2.pixel;
   if (!aligned2.converged || aligned2.mean_abs_error > uo.max_mean_abs_error ||
       !(e2.dot(S2.ldlt().solve(e2)) < uo.mahalanobis_threshold)) {
@@ -236,6 +241,7 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
                                            Eigen::Matrix2d::Identity(), 0.0, uo.pixel_sigma, c);
   N_pix += StereoJointNoise(Eigen::Matrix2d::Identity(), Eigen::Matrix2d::Identity(), 0.0,
                             persistent_sigma, 1.0);
+  N_pix += StereoJointNoise(Z2, Eigen::Matrix2d::Identity(), 0.0, std::sqrt(disparity), 0.0);
   N_pix += 0.25 * Eigen::Matrix4d::Identity();  // alignment precision [px^2]
   Eigen::Vector4d e;
   e << e1, e2;
@@ -277,7 +283,8 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
     y << y1, y2;
     S = H * P_sub * H.transpose() +
         StereoJointNoise(R1, R2, uo.intensity_sigma, uo.pixel_sigma, c) +
-        StereoJointNoise(R1, R2, 0.0, persistent_sigma, 1.0);
+        StereoJointNoise(R1, R2, 0.0, persistent_sigma, 1.0) +
+        StereoJointNoise(Z2, R2, 0.0, std::sqrt(disparity), 0.0);
     const FeatureState& f = x_iter_.features[i];
     Eigen::Vector4d d_cur;
     d_cur << BearingBoxMinus(f.mu_C, mu0), f.rho - x0_.features[i].rho, x_iter_.td - x0_.td;
@@ -310,6 +317,14 @@ VioFilter::JointUpdate VioFilter::UpdateFeatureJoint(int slot) {
   ++tracks_[i].template_updates;
   tracks_[i].updated = true;
   return JointUpdate::kDone;
+}
+
+double VioFilter::PersistentDisparityVariance(int slot) const {
+  // As PersistentPixelVariance (vio_filter.cpp), for the error of C2's alignment of the C1
+  // template that persists from frame to frame: n updates draw ~ln(n) / s^2 of disparity
+  // information from it instead of n / s^2.
+  const double s = options_.stereo.persistent_disparity_sigma;
+  return s * s * static_cast<double>(tracks_[static_cast<std::size_t>(slot)].template_updates + 1);
 }
 
 void VioFilter::InitializeDepthFromStereo(int slot) {

@@ -172,6 +172,9 @@ class VioFilter {
   void RefreshPatch(int slot);
   // update.persistent_pixel_sigma^2 x (updates made with the slot's template + 1) [px^2].
   double PersistentPixelVariance(int slot) const;
+  // stereo.persistent_disparity_sigma^2 x (updates made with the slot's template + 1) [px^2]:
+  // added to the second camera's rows only (vio_filter_stereo.cpp).
+  double PersistentDisparityVariance(int slot) const;
   // stereo.probation_frames: one C1-only update of a stereo-matched feature was accepted with
   // normalized innovation nis; at the end of the probation, removes a feature whose depth
   // disagreed with C1's flow (marks it for removal).
