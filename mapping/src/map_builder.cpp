@@ -54,6 +54,19 @@ std::string MapBuilderStats::FullReport(const std::string& indent) const {
     s << indent << "track refinement " << refined_keypoints << " observations aligned to their "
       << "track's first, " << refinement_splits << " tracks split, " << refinement_kept
       << " failed alignments kept in their track\n";
+    s << indent << "                 mean |aligned - detected| "
+      << (refined_keypoints > 0
+              ? refinement_shift_sum_px / static_cast<double>(refined_keypoints)
+              : 0.0)
+      << " px";
+    const char* separator = "; failed: ";
+    for (int k = 0; k < 8; ++k) {
+      if (refinement_failed_by_status[k] == 0) continue;
+      s << separator << refinement_failed_by_status[k] << " "
+        << PatchAlignmentStatusName(static_cast<PatchAlignment::Status>(k));
+      separator = ", ";
+    }
+    s << "\n";
   }
   s
     << indent << "tracks           " << tracks << " with >= 2 observations, " << single_observations
@@ -329,6 +342,11 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
       stats_.refined_keypoints += refiner.stats().refined - before.refined;
       stats_.refinement_splits += refiner.stats().splits - before.splits;
       stats_.refinement_kept += refiner.stats().kept - before.kept;
+      stats_.refinement_shift_sum_px += refiner.stats().shift_sum_px - before.shift_sum_px;
+      for (int k = 0; k < 8; ++k) {
+        stats_.refinement_failed_by_status[k] +=
+            refiner.stats().failed_by_status[k] - before.failed_by_status[k];
+      }
     } else {
       frame.track_ids = r.track_ids;
     }

@@ -396,6 +396,17 @@ TEST_CASE("map builder: track refinement puts the room's landmarks closer to the
   CHECK(refined.stats.refined_keypoints > refined.stats.tracked_keypoints / 2);
   CHECK(refined.stats.refinement_splits < refined.stats.tracked_keypoints / 5);
   CHECK(refined.stats.landmarks_good >= 300);
+  // Every failed alignment is counted by its reason; the aligned ones moved the detector's
+  // keypoints by less than max_shift_px on average (more: the c0 chain would not hold).
+  int64_t failed = 0;
+  for (const int64_t n : refined.stats.refinement_failed_by_status) failed += n;
+  CHECK(failed == refined.stats.refinement_splits + refined.stats.refinement_kept);
+  CHECK(refined.stats.refinement_failed_by_status[0] == 0);  // kOk is no failure
+  const double mean_shift =
+      refined.stats.refinement_shift_sum_px / static_cast<double>(refined.stats.refined_keypoints);
+  CHECK(mean_shift > 0.0);
+  CHECK(mean_shift < options.track_refinement.max_shift_px);
+  CHECK_THAT(refined.stats.FullReport(), Catch::Contains("mean |aligned - detected|"));
   CHECK(d_refined < 0.5 * d_plain);  // measured 0.33 against 1.54 cm (2026-11-27)
   CHECK(mapstore::CheckMapConsistency(refined.map).ok());
   // The delta stream carries the refined keypoints and split track ids like any others.
