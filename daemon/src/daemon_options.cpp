@@ -261,6 +261,10 @@ void VisitDaemonFields(Options& o, Visitor&& v) {
     o.localization.global_frame.drift_yaw_deg_per_sqrt_s);
   v("localization", "min_sigma_position_m", o.localization.global_frame.min_sigma_position_m);
   v("localization", "min_sigma_yaw_deg", o.localization.global_frame.min_sigma_yaw_deg);
+  v("localization", "noise_scale_window", o.localization.global_frame.noise_scale_window);
+  v("localization", "noise_scale_prior", o.localization.global_frame.noise_scale_prior);
+  v("localization", "noise_scale_prior_weight",
+    o.localization.global_frame.noise_scale_prior_weight);
   v("localization", "features",
     WithCodec(o.localization,
               [](const YamlNode& node, const char* key, LocalizationOptions* l) {

@@ -48,6 +48,17 @@ std::string GlobalFrameOptions::Validate() const {
   if (!(std::isfinite(min_sigma_yaw_deg) && min_sigma_yaw_deg > 0.0)) {
     return "min_sigma_yaw_deg: expected > 0 [deg]";
   }
+  if (noise_scale_window < 0) return "noise_scale_window: expected >= 0 (0 = off) [results]";
+  if (noise_scale_window > 0 && !random_walk()) {
+    return "noise_scale_window: expected 0 without the random-walk fusion "
+           "(drift_position_m_per_sqrt_s, drift_yaw_deg_per_sqrt_s > 0)";
+  }
+  if (!(std::isfinite(noise_scale_prior) && noise_scale_prior >= 1.0)) {
+    return "noise_scale_prior: expected >= 1 [variance ratio]";
+  }
+  if (!(std::isfinite(noise_scale_prior_weight) && noise_scale_prior_weight >= 0.0)) {
+    return "noise_scale_prior_weight: expected >= 0 [results]";
+  }
   return "";
 }
 
@@ -90,6 +101,18 @@ void GlobalFrameEstimator::Reset() {
   t_ns_ = 0;
   x_.setZero();
   info_.setZero();
+  noise_samples_.clear();
+}
+
+Eigen::Vector2d GlobalFrameEstimator::noise_scale() const {
+  if (!options_.adaptive_noise()) return Eigen::Vector2d::Ones();
+  // Covariance matching with a prior: lambda = (n0 lambda0 + sum r) / (n0 + n), at least 1.
+  const double n0 = options_.noise_scale_prior_weight;
+  Eigen::Vector2d sum = n0 * options_.noise_scale_prior * Eigen::Vector2d::Ones();
+  for (const Eigen::Vector2d& r : noise_samples_) sum += r;
+  const double n = n0 + static_cast<double>(noise_samples_.size());
+  if (n <= 0.0) return Eigen::Vector2d::Ones();
+  return (sum / n).cwiseMax(1.0);
 }
 
 GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
@@ -102,14 +125,23 @@ GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
       !R.allFinite()) {
     return GlobalFrameUpdate::kRejectedGravity;
   }
-  const Eigen::Matrix4d W = R.llt().solve(Eigen::Matrix4d::Identity());  // R^-1
+  // R scaled by the adaptive noise scales: D R D, D = diag(sqrt(lp), sqrt(lp), sqrt(lp), sqrt(ly)).
+  auto scaled_information = [&] {
+    const Eigen::Vector2d lambda = noise_scale();
+    const Eigen::Vector4d d(std::sqrt(lambda[0]), std::sqrt(lambda[0]), std::sqrt(lambda[0]),
+                            std::sqrt(lambda[1]));
+    const Eigen::Matrix4d R_scaled = d.asDiagonal() * R * d.asDiagonal();
+    return Eigen::Matrix4d(R_scaled.llt().solve(Eigen::Matrix4d::Identity()));
+  };
+  Eigen::Matrix4d W = R.llt().solve(Eigen::Matrix4d::Identity());  // R^-1
   auto start = [&] {
     has_estimate_ = true;
     consistent_ = 1;
     consecutive_gated_ = 0;
     t_ns_ = t_ns;
     x_ = z;
-    info_ = W;
+    noise_samples_.clear();  // innovations against an estimate that is given up
+    info_ = options_.adaptive_noise() ? scaled_information() : W;
   };
   if (!has_estimate_) {
     start();
@@ -142,6 +174,24 @@ GlobalFrameUpdate GlobalFrameEstimator::Update(const Transformation& T_G_I,
     const double qy = options_.drift_yaw_deg_per_sqrt_s * kDegToRad;
     Eigen::Matrix4d P = info_.llt().solve(Eigen::Matrix4d::Identity());
     P.diagonal() += dt * Eigen::Vector4d(qp * qp, qp * qp, qp * qp, qy * qy);
+    if (options_.adaptive_noise()) {
+      // Covariance matching (Mehra 1972; Myers & Tapley 1976): E[nu nu^T] = P- + R, so per
+      // axis (nu_j^2 - P-_jj) / R_jj estimates R's scale; averaged over the position axes and
+      // kept for the yaw. This result's own innovation is included before it is fused; only
+      // innovations against a confirmed estimate count (before, the candidate may be the
+      // outlier).
+      if (initialized()) {
+        Eigen::Vector2d r;
+        r[0] = 0.0;
+        for (int j = 0; j < 3; ++j) r[0] += (dz[j] * dz[j] - P(j, j)) / R(j, j) / 3.0;
+        r[1] = (dz[3] * dz[3] - P(3, 3)) / R(3, 3);
+        noise_samples_.push_back(r);
+        while (static_cast<int>(noise_samples_.size()) > options_.noise_scale_window) {
+          noise_samples_.pop_front();
+        }
+      }
+      W = scaled_information();
+    }
     info_ = P.llt().solve(Eigen::Matrix4d::Identity()) + W;
     t_ns_ = std::max(t_ns_, t_ns);
     x_ += info_.llt().solve(W * dz);

@@ -215,6 +215,13 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
              Catch::Contains("localization.drift_yaw_deg_per_sqrt_s"));
   CHECK_THAT(ErrorOf(Replace(good, "min_sigma_position_m: 0.01", "min_sigma_position_m: 0")),
              Catch::Contains("localization.min_sigma_position_m"));
+  // Adaptive measurement noise: only with the random walk; its prior scale is >= 1.
+  CHECK_THAT(ErrorOf(Replace(good, "noise_scale_window: 0", "noise_scale_window: 20")),
+             Catch::Contains("localization.noise_scale_window"));
+  CHECK_THAT(ErrorOf(Replace(good, "noise_scale_prior: 4.0", "noise_scale_prior: 0.5")),
+             Catch::Contains("localization.noise_scale_prior"));
+  CHECK_THAT(ErrorOf(Replace(good, "noise_scale_prior_weight: 5.0", "noise_scale_prior_weight: -1")),
+             Catch::Contains("localization.noise_scale_prior_weight"));
   CHECK_THAT(ErrorOf(Replace(good, "max_consecutive_gated: 5", "max_consecutive_gated: 5\n  bogus: 1")),
              Catch::Contains("bogus"));
   // An absent key keeps its default (a daemon.yaml of an older vilma still loads).

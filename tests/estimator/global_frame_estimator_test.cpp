@@ -176,6 +176,103 @@ TEST_CASE("T_G_M random walk: the estimate does not depend on the update rate",
   CHECK(f4 / f1 == Approx(4.0).epsilon(0.01));
 }
 
+// Adaptive measurement noise (noise_scale_window > 0): R scaled by lambda learned from the
+// innovations by covariance matching.
+GlobalFrameOptions Adaptive(int window, double prior, double prior_weight) {
+  GlobalFrameOptions o = RandomWalk(1e-4, 1e-3);
+  o.noise_scale_window = window;
+  o.noise_scale_prior = prior;
+  o.noise_scale_prior_weight = prior_weight;
+  return o;
+}
+
+// Static truth, results at 2 Hz whose true scatter is k times the sigma their covariance
+// states (white); returns the noise scales after n results.
+Eigen::Vector2d ScaleAfter(const GlobalFrameOptions& o, double k, int n, unsigned seed) {
+  GlobalFrameEstimator e(o);
+  const Transformation T_M_I = YawPose(0.0, {0, 0, 0});
+  const double sp = 0.01, sy = 0.2 * kDeg;
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int i = 0; i < n; ++i) {
+    const Transformation T_G_I =
+        YawPose(k * sy * g(rng), {k * sp * g(rng), k * sp * g(rng), k * sp * g(rng)});
+    REQUIRE(e.Update(T_G_I, Cov(sp, sy), T_M_I, static_cast<int64_t>(i) * kSec / 2) ==
+            GlobalFrameUpdate::kAccepted);
+  }
+  return e.noise_scale();
+}
+
+TEST_CASE("T_G_M adaptive noise: the scale converges to the true noise of a white sequence",
+          "[estimator][localization]") {
+  // No prior, 200 innovations: lambda estimates k^2 (position: 600 squared innovations, relative
+  // sigma sqrt(2 / 600) = 6 %; yaw: 200, 10 %); checked at 3 sigma over three seeds.
+  for (const unsigned seed : {1u, 2u, 3u}) {
+    const Eigen::Vector2d l3 = ScaleAfter(Adaptive(200, 1.0, 0.0), 3.0, 400, seed);
+    CHECK(l3[0] == Approx(9.0).epsilon(0.18));
+    CHECK(l3[1] == Approx(9.0).epsilon(0.30));
+    const Eigen::Vector2d l2 = ScaleAfter(Adaptive(200, 1.0, 0.0), 2.0, 400, seed);
+    CHECK(l2[0] == Approx(4.0).epsilon(0.18));
+    CHECK(l2[1] == Approx(4.0).epsilon(0.30));
+  }
+}
+
+TEST_CASE("T_G_M adaptive noise: large for a scattered sequence, 1 for a tight one",
+          "[estimator][localization]") {
+  // With the default prior (4, 5 results) and window (20): results better than their covariance
+  // says pull lambda down to about 1 (its floor; the prior keeps 5 of the 25 weights) ...
+  const GlobalFrameOptions o = Adaptive(20, 4.0, 5.0);
+  const Eigen::Vector2d tight = ScaleAfter(o, 0.5, 60, 7);
+  CHECK(tight[0] <= 1.1);
+  CHECK(tight[1] <= 1.1);
+  // ... results 5x more scattered push it up (the estimate then averages longer).
+  const Eigen::Vector2d scattered = ScaleAfter(o, 5.0, 60, 7);
+  CHECK(scattered[0] > 10.0);
+  CHECK(scattered[1] > 10.0);
+  // Before any innovation (the first result), the prior.
+  GlobalFrameEstimator e(o);
+  CHECK(e.noise_scale()[0] == Approx(4.0));
+  // Off: scales 1.
+  CHECK(GlobalFrameEstimator(RandomWalk(0.01, 0.1)).noise_scale() == Eigen::Vector2d::Ones());
+}
+
+TEST_CASE("T_G_M adaptive noise: a fixed scale of 1 is the plain random walk, the scale weights the results",
+          "[estimator][localization]") {
+  // A prior of 1 with an overwhelming weight keeps lambda at 1: the same numbers as without
+  // adaptive noise (the old mode reachable and unchanged).
+  const GlobalFrameOptions plain = RandomWalk(0.01, 0.1);
+  GlobalFrameOptions fixed1 = plain;
+  fixed1.noise_scale_window = 5;
+  fixed1.noise_scale_prior = 1.0;
+  fixed1.noise_scale_prior_weight = 1e12;
+  GlobalFrameEstimator a(plain), b(fixed1);
+  const Transformation T_M_I = YawPose(0.3, {1, 2, 0});
+  std::mt19937 rng(11);
+  std::normal_distribution<double> g(0.0, 1.0);
+  for (int i = 0; i < 30; ++i) {
+    const Transformation T_G_I = YawPose(0.5 + 0.01 * g(rng), {0.05 * g(rng), 0.05 * g(rng), 0}) * T_M_I;
+    const int64_t t = static_cast<int64_t>(i) * kSec / 2;
+    REQUIRE(a.Update(T_G_I, Cov(0.02, 0.3 * kDeg), T_M_I, t) ==
+            b.Update(T_G_I, Cov(0.02, 0.3 * kDeg), T_M_I, t));
+  }
+  CHECK((a.state() - b.state()).norm() < 1e-10);
+  CHECK((a.covariance() - b.covariance()).norm() <= 1e-9 * a.covariance().norm());
+  // A scale lambda on R is the Kalman gain with lambda R: a first result at 0 and a second at
+  // 0.1 m 0.5 s later give x = K 0.1, K = P- / (P- + lambda R), P- = lambda R + q^2 dt (lambda
+  // held at the prior 9 by its weight).
+  GlobalFrameOptions o = Adaptive(10, 9.0, 1e12);
+  GlobalFrameEstimator c(o);
+  const Transformation I = YawPose(0.0, {0, 0, 0});
+  REQUIRE(c.Update(YawPose(0.0, {0, 0, 0}), Cov(0.02, 0.3 * kDeg), I, 0) == GlobalFrameUpdate::kAccepted);
+  REQUIRE(c.Update(YawPose(0.0, {0.1, 0, 0}), Cov(0.02, 0.3 * kDeg), I, kSec / 2) ==
+          GlobalFrameUpdate::kAccepted);
+  Eigen::Vector4d z;
+  Eigen::Matrix4d R;
+  GlobalFrameEstimator::Measure(I, Cov(0.02, 0.3 * kDeg), I, &z, &R, o);
+  const double pm = 9.0 * R(0, 0) + 1e-8 * 0.5;  // P- = lambda R (first result) + q^2 dt
+  CHECK(c.state()[0] == Approx(pm / (pm + 9.0 * R(0, 0)) * 0.1).epsilon(1e-6));
+}
+
 TEST_CASE("T_G_M options: drift and floors validated", "[estimator][localization]") {
   GlobalFrameOptions o = RandomWalk(0.01, 0.1);
   CHECK(o.Validate().empty());
@@ -189,6 +286,17 @@ TEST_CASE("T_G_M options: drift and floors validated", "[estimator][localization
   o = RandomWalk(0.01, 0.1);
   o.min_sigma_yaw_deg = std::nan("");
   CHECK(o.Validate().find("min_sigma_yaw_deg") == 0);
+  // Adaptive noise: only with the random walk; prior >= 1, weight >= 0, window >= 0.
+  o = Adaptive(20, 4.0, 5.0);
+  CHECK(o.Validate().empty());
+  o.drift_position_m_per_sqrt_s = o.drift_yaw_deg_per_sqrt_s = 0.0;
+  CHECK(o.Validate().find("noise_scale_window") == 0);
+  o = Adaptive(-1, 4.0, 5.0);
+  CHECK(o.Validate().find("noise_scale_window") == 0);
+  o = Adaptive(20, 0.9, 5.0);
+  CHECK(o.Validate().find("noise_scale_prior:") == 0);
+  o = Adaptive(20, 4.0, -1.0);
+  CHECK(o.Validate().find("noise_scale_prior_weight") == 0);
 }
 
 }  // namespace

@@ -4,12 +4,14 @@
 // of freedom (x, y, z, yaw); measurements with roll/pitch are rejected, measurements that jump
 // from the estimate are gated, and the accepted ones are fused by inverse-covariance weighting,
 // either with a forgetting factor per update or (drift_* > 0) as a Kalman filter on a random-walk
-// T_G_M whose process noise grows with the time between results. Used by
+// T_G_M whose process noise grows with the time between results, optionally with measurement
+// noise scales learned from the innovations (noise_scale_window > 0). Used by
 // vilma-estimatord's filter thread (LOC mode); not thread-safe.
 #pragma once
 
 #include <Eigen/Core>
 #include <cstdint>
+#include <deque>
 #include <string>
 
 #include "vilma/core/geometry.h"
@@ -38,6 +40,17 @@ struct GlobalFrameOptions {
   // not map errors nor the VIO's own error at that frame) [m, deg].
   double min_sigma_position_m = 0.01;
   double min_sigma_yaw_deg = 0.2;
+  // Adaptive measurement noise (random-walk fusion only; 0 = off): each result's R (P3P
+  // covariance + floors) is scaled by lambda_p (position block) and lambda_yaw >= 1, estimated by
+  // covariance matching from the innovations nu = z - x of the last noise_scale_window fused
+  // results: r = mean_j (nu_j^2 - P-_jj) / R_jj per block, lambda = max(1, (n0 lambda0 + sum r)
+  // / (n0 + n)), with the prior lambda0 = noise_scale_prior held as n0 =
+  // noise_scale_prior_weight results. Against an exact map the innovations match R and recent
+  // results are trusted; against a drifting map they scatter and the estimate averages longer.
+  int noise_scale_window = 0;             // results [count]
+  double noise_scale_prior = 4.0;         // lambda0 [variance ratio, >= 1]
+  double noise_scale_prior_weight = 5.0;  // n0 [results, >= 0]
+  bool adaptive_noise() const { return noise_scale_window > 0; }
   bool random_walk() const {
     return drift_position_m_per_sqrt_s > 0.0 || drift_yaw_deg_per_sqrt_s > 0.0;
   }
@@ -69,6 +82,9 @@ class GlobalFrameEstimator {
   // Covariance of (x, y, z, yaw) at the last fused result [m^2, rad^2].
   Eigen::Matrix4d covariance() const;
   const Eigen::Vector4d& state() const { return x_; }
+  // The measurement noise scales (lambda_p, lambda_yaw) the next result gets (1, 1 without
+  // adaptive noise).
+  Eigen::Vector2d noise_scale() const;
 
   // The 4-DoF measurement z = (p_G_M, yaw) and its covariance from a result (public for tests).
   // Returns the tilt of R_G_M (angle between its z axis and G's) [rad].
@@ -85,6 +101,9 @@ class GlobalFrameEstimator {
   int64_t t_ns_ = 0;         // time of the last fused result (random walk)
   Eigen::Vector4d x_ = Eigen::Vector4d::Zero();        // (x, y, z, yaw) [m, rad]
   Eigen::Matrix4d info_ = Eigen::Matrix4d::Zero();     // information matrix
+  // Adaptive noise: per fused result (random walk, after the first), the innovation's
+  // (r_position, r_yaw) [variance ratio]; the last noise_scale_window of them.
+  std::deque<Eigen::Vector2d> noise_samples_;
 };
 
 }  // namespace vilma::estimator
