@@ -211,13 +211,20 @@ TEST_CASE("localization options: strict, validated, read back", "[daemon][locali
              Catch::Contains("localization.max_gravity_misalignment_deg"));
   CHECK_THAT(ErrorOf(Replace(good, "forgetting_factor: 0.8", "forgetting_factor: 1.5")),
              Catch::Contains("localization.forgetting_factor"));
-  CHECK_THAT(ErrorOf(Replace(good, "drift_yaw_deg_per_sqrt_s: 0.0", "drift_yaw_deg_per_sqrt_s: 0.1")),
+  // The random walk (the default) needs both drifts; both 0 is the forgetting factor.
+  CHECK_THAT(ErrorOf(Replace(good, "drift_position_m_per_sqrt_s: 0.01", "drift_position_m_per_sqrt_s: 0.0")),
              Catch::Contains("localization.drift_yaw_deg_per_sqrt_s"));
+  const std::string forgetting =
+      Replace(Replace(good, "drift_position_m_per_sqrt_s: 0.01", "drift_position_m_per_sqrt_s: 0.0"),
+              "drift_yaw_deg_per_sqrt_s: 0.3", "drift_yaw_deg_per_sqrt_s: 0.0");
+  CHECK_FALSE(ParseDaemonOptions(forgetting, "daemon.yaml").localization.global_frame.random_walk());
+  CHECK(ParseDaemonOptions(good, "daemon.yaml").localization.global_frame.random_walk());
   CHECK_THAT(ErrorOf(Replace(good, "min_sigma_position_m: 0.01", "min_sigma_position_m: 0")),
              Catch::Contains("localization.min_sigma_position_m"));
   // Adaptive measurement noise: only with the random walk; its prior scale is >= 1.
-  CHECK_THAT(ErrorOf(Replace(good, "noise_scale_window: 0", "noise_scale_window: 20")),
+  CHECK_THAT(ErrorOf(Replace(forgetting, "noise_scale_window: 0", "noise_scale_window: 20")),
              Catch::Contains("localization.noise_scale_window"));
+  CHECK(ErrorOf(Replace(good, "noise_scale_window: 0", "noise_scale_window: 20")).empty());
   CHECK_THAT(ErrorOf(Replace(good, "noise_scale_prior: 4.0", "noise_scale_prior: 0.5")),
              Catch::Contains("localization.noise_scale_prior"));
   CHECK_THAT(ErrorOf(Replace(good, "noise_scale_prior_weight: 5.0", "noise_scale_prior_weight: -1")),

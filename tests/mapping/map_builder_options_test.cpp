@@ -111,7 +111,7 @@ TEST_CASE("map builder options: strict reading names file and key", "[mapping]")
                     Catch::Contains("max_track_duration_s"));
   CHECK(ParseMapBuilderOptions(Replace(good, "max_track_vertices: 100\n", ""), "m.yaml")
             .max_track_vertices == defaults.max_track_vertices);
-  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "method: \"none\"", "method: \"klt\""),
+  CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "method: \"affine\"", "method: \"klt\""),
                                            "m.yaml"),
                     Catch::Contains("track_refinement.method"));
   CHECK_THROWS_WITH(ParseMapBuilderOptions(Replace(good, "on_failure: \"keep\"",

@@ -69,6 +69,9 @@ TrackRefinementOptions Options(const std::string& method) {
 TEST_CASE("track refinement options: defaults valid, bad values named", "[mapping][refine]") {
   TrackRefinementOptions o;
   CHECK(o.Validate().empty());
+  CHECK(o.enabled());  // "affine" with on_failure "keep" by default since 2026-11-28
+  o.method = "none";
+  CHECK(o.Validate().empty());
   CHECK_FALSE(o.enabled());
   o.method = "affine";
   CHECK(o.Validate().empty());

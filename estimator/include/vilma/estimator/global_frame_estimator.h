@@ -34,8 +34,10 @@ struct GlobalFrameOptions {
   // Random-walk fusion (both > 0; then forgetting_factor is not used): T_G_M drifts like the
   // VIO, P += diag(q_p^2, q_p^2, q_p^2, q_yaw^2) dt between results dt seconds apart, so the
   // estimate does not depend on how many results are accepted. 0 and 0 = the forgetting factor.
-  double drift_position_m_per_sqrt_s = 0.0;  // q_p [m/sqrt(s)]
-  double drift_yaw_deg_per_sqrt_s = 0.0;     // q_yaw [deg/sqrt(s)]
+  // The default since 2026-11-28 (docs/daemon.md "T_G_M estimation": better on ground-truth and
+  // optimized maps, a few % worse on raw VIO maps of the room).
+  double drift_position_m_per_sqrt_s = 0.01;  // q_p [m/sqrt(s)]
+  double drift_yaw_deg_per_sqrt_s = 0.3;      // q_yaw [deg/sqrt(s)]
   // Floors added to the measurement variances (the P3P covariance only holds the pixel noise,
   // not map errors nor the VIO's own error at that frame) [m, deg].
   double min_sigma_position_m = 0.01;

@@ -57,7 +57,7 @@ struct TrackRefinementOptions {
   // "none": the detector's positions (tracks as the tracker makes them); "translation": the
   // reference patch aligned by its centre only (warp held at identity); "affine": centre and a
   // 2x2 warp (the patch's perspective change along the track: scale, shear).
-  std::string method = "none";
+  std::string method = "affine";
   int patch_half_size_px = 7;    // the patch is (2 h + 1)^2 samples [px]
   int max_iterations = 30;       // Gauss-Newton iterations at most
   double convergence_px = 0.005; // stop when no patch corner moves farther in a step [px]
