@@ -82,6 +82,8 @@ TEST_CASE("T_G_M: gravity-misaligned and jumping results are rejected, a lasting
 
 TEST_CASE("T_G_M: the forgetting factor follows a drifting M", "[estimator][localization]") {
   GlobalFrameOptions o;
+  o.drift_position_m_per_sqrt_s = 0.0;  // both drifts 0: the forgetting factor (the random walk
+  o.drift_yaw_deg_per_sqrt_s = 0.0;     // is the default since 2026-11-28)
   GlobalFrameEstimator e(o);
   const Transformation T_M_I = YawPose(0.0, {0, 0, 1});
   const Matrix6d c = Cov(0.02, 0.3 * kDeg);
