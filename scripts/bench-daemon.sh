@@ -24,8 +24,8 @@
 #                    (docs/benchmarks.md "Localization in the daemon")
 #   BENCH_STEREO     1: the set rendered with cam1 too (vilma-sim --stereo) and the daemon run with
 #                    --stereo (both cameras in the filter and, with BENCH_MAPPING, in the map)
-#   BENCH_DAEMON_CONFIG  a daemon config (--config) for the runs, e.g. mapping.map_builder with
-#                    track refinement (docs/mapping.md "Track refinement"); default the built-in
+#   BENCH_DAEMON_CONFIG  a daemon config (--config) for the runs, e.g. mapping.map_builder with track_refinement
+#                    method "none" (no track refinement; docs/mapping.md "Track refinement"); default the built-in
 #   BENCH_BEFORE_ESTIMATORD  another vilma-estimatord binary (e.g. the pre-split daemon of issue
 #                    19, ~/.cache/vilma/issue19/baseline-bin/vilma-estimatord): each repeat runs it
 #                    ("before") and then this build's ("after") on the same set with the same

@@ -38,7 +38,7 @@
 #                    ${VILMA_CACHE:-~/.cache/vilma}/datasets); missing sets are made
 #   BENCH_WORK       folder for logs, maps and outputs (default ${VILMA_CACHE:-~/.cache/vilma}/bench-loc)
 #   VIO_MAP_DAEMON_CONFIG  daemon config (--config) for the session-0 map run of the vio and opt
-#                    maps, e.g. mapping.map_builder with track refinement (as in bench-optvi.sh;
+#                    maps, e.g. mapping.map_builder without track refinement (as in bench-optvi.sh;
 #                    give it its own BENCH_WORK); the query runs keep the built-in config
 # Maps, logs and daemon runs are reused while newer than their inputs and the binaries.
 set -euo pipefail

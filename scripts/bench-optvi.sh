@@ -33,7 +33,7 @@
 #   VILMA_SHARED_DATA (default ../shared/data beside the repository); BENCH_REAL=0 skips table 2,
 #   BENCH_COLMAP=0 table 3 (visual-only bundle adjustment against COLMAP's bundle_adjuster),
 #   BENCH_SIM=0 table 1, BENCH_TARGET=0 table 4; VIO_MAP_DAEMON_CONFIG=daemon.yaml: table 1's
-#   maps built with that daemon config (e.g. mapping.map_builder with track refinement; use
+#   maps built with that daemon config (e.g. mapping.map_builder without track refinement, method "none"; use
 #   its own BENCH_WORK); BENCH_SIM_PIPELINES: table 1's console pipelines separated by `|`
 #   (default `optvi|lc; rtl; optvi`; `optvi` alone gives issue 12's target-1 rows);
 #   MOVING_MAP_CONFIG: the real moving slice's map built with that map builder YAML;
