@@ -9,10 +9,6 @@ namespace vilma::estimator {
 namespace {
 
 constexpr double kDegToRad = M_PI / 180.0;
-// Floors of the measurement standard deviations: the P3P covariance only holds the pixel
-// noise, not map errors or the VIO's own uncertainty at that frame [m, rad].
-constexpr double kMinSigmaPosition = 0.01;
-constexpr double kMinSigmaYaw = 0.2 * kDegToRad;
 
 double WrapAngle(double a) { return std::atan2(std::sin(a), std::cos(a)); }
 
