@@ -324,7 +324,10 @@ RIG
   --RigBundleAdjustment.refine_relative_poses 0 --BundleAdjustment.refine_focal_length 0 \
   --BundleAdjustment.refine_extra_params 0 --BundleAdjustment.max_num_iterations 30 \
   > "$cmp/colmap-rig.out" 2>&1
-console "$cmp/optv.console" "load $map; optv --ba_outlier_rejection=false --evaluate_quality=false"
+# The same objective as COLMAP's (its default trivial loss, every observation weighted alike):
+# without the two flags optv weighs each keypoint by its stored sigma (0.15 px for refined ones,
+# the map builder's default since 2026-11-28) under a Cauchy loss at 3 sigma, a different problem.
+console "$cmp/optv.console" "load $map; optv --ba_outlier_rejection=false --evaluate_quality=false --keypoint_sigma_px 1 --ba_robust_loss none"
 read -r colmap_s colmap_kb < "$cmp/colmap.time"
 colmap_iterations=$(awk '/Iterations :/ { print $3 }' "$cmp/colmap.out" | tail -1)
 colmap_initial=$(awk '/Initial cost :/ { print 2 * $4 }' "$cmp/colmap.out" | tail -1)
