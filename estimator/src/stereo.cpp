@@ -119,8 +119,8 @@ StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix
 
   // 1. Coarse search along the curve: the mean |residual| of every sample; its local minima
   //    are the candidates, lowest first. Measured on the simulator's perfect renders
-  //    (tests/estimator/stereo_sim_test.cpp, docs/estimator.md "Why stereo matches fail"):
-  //    taking only the global minimum lost most matches to a false minimum at the near end
+  //    (tests/estimator/stereo_sim_test.cpp, docs/estimator-stereo-history.md "Why stereo matches
+  //    fail"): taking only the global minimum lost most matches to a false minimum at the near end
   //    (rho 1.4..4.3 1/m, where the curve sweeps fast over repetitive texture); the 2D
   //    alignment from there slid along the texture, off the curve, and was rejected.
   Eigen::VectorXd r;
@@ -161,7 +161,7 @@ StereoMatch MatchInOtherCamera(const MultilevelPatch& patch, const Eigen::Matrix
     StereoMatch m = RefineCandidate(patch, D, pyramid2, camera2, T_C2_C1, mu_C1, options,
                                     sample_rho);
     if (m.found && options.min_uniqueness_ratio > 0.0) {
-      // 4. Uniqueness (docs/estimator.md "False stereo matches and the filter's
+      // 4. Uniqueness (docs/estimator-stereo-history.md "False stereo matches and the filter's
       //    consistency"): on repetitive texture a false minimum can align and converge on
       //    the curve as well as the true one; its
       //    rho is then wrong by up to the whole search range while its sigma says 2 %. Every

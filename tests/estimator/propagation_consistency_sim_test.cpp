@@ -1,6 +1,6 @@
 // Consistency of the filter's IMU propagation with the simulator's IMU noise (issue 17, session
-// 35; docs/estimator.md "Stereo and noisy IMUs: the consistency checks"). The filter is started
-// at the true state (pose, velocity and the true biases, zero covariance) on a simulated
+// 35; docs/estimator-stereo-history.md "Stereo and noisy IMUs: the consistency checks"). The filter
+// is started at the true state (pose, velocity and the true biases, zero covariance) on a simulated
 // trajectory and propagated without updates exactly as VioFilter::Propagate does it (the
 // midpoint of each IMU interval, PropagateMean + PropagateCovariance with the rig's densities),
 // over many independent draws of the simulated IMU (white noise and bias random walk). The

@@ -1,7 +1,7 @@
 // The disparity error of the second-camera alignment on the simulator's renders, against the
-// renderer's geometry (issue 17, docs/estimator.md "Street: is the disparity biased?"). For
-// features detected in camera 1 of a simulated stereo street, the true 3-D point of the
-// feature's C1 ray (sim::World::RayCast from the true camera pose) is projected into camera 2;
+// renderer's geometry (issue 17, docs/estimator-stereo-history.md "Street: is the disparity
+// biased?"). For features detected in camera 1 of a simulated stereo street, the true 3-D point of
+// the feature's C1 ray (sim::World::RayCast from the true camera pose) is projected into camera 2;
 // the patch extracted in C1 is aligned in C2 as the filter aligns it (prediction at the true
 // depth, warp W2, AlignPatch) and as the initial-depth matcher does (MatchInOtherCamera). The
 // error along the epipolar curve (positive: a larger disparity, a nearer point) is binned by

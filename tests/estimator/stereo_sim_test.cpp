@@ -1,6 +1,6 @@
 // Stereo initial-depth matching on the simulator's renders (perfect images, exact rig): the
 // share of new features whose inverse distance is matched in camera 2, and why the others are
-// not (StereoMatchFailure). docs/estimator.md "Why stereo matches fail". With
+// not (StereoMatchFailure). docs/estimator-stereo-history.md "Why stereo matches fail". With
 // stereo.probation_frames, the matched depths tested against C1's flow (session 36).
 #include <catch2/catch.hpp>
 #include <cstdlib>

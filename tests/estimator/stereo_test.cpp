@@ -220,10 +220,10 @@ TEST_CASE("a stereo match recovers the inverse distance of a textured plane") {
 }
 
 TEST_CASE("a stereo match with a second, equally good place on the line is ambiguous") {
-  // docs/estimator.md "False stereo matches": repetitive texture gives a second minimum along
-  // the epipolar line that aligns and converges on the line as well as the true one. Here the
-  // second image holds the true neighbourhood of the feature (disparity 10 px, rho 1/3 1/m)
-  // and a copy of it 100 px further along the line (disparity 110 px, rho 3.67 1/m; blocks of
+  // docs/estimator-stereo-history.md "False stereo matches": repetitive texture gives a second
+  // minimum along the epipolar line that aligns and converges on the line as well as the true one.
+  // Here the second image holds the true neighbourhood of the feature (disparity 10 px, rho 1/3
+  // 1/m) and a copy of it 100 px further along the line (disparity 110 px, rho 3.67 1/m; blocks of
   // 100 px so that the coarsest patch level sees the same texture at both places). The
   // feature is at the image centre, where the patch warp into C2 is the same for both depths
   // (elsewhere the warp predicted at rho 3.67 is scaled by ~8 %, and so would be a true
@@ -429,10 +429,10 @@ TEST_CASE("stereo: a persistent disparity error leaves the depths less certain")
 // A feature whose depth is confidently wrong (here every new feature: no stereo match, a start
 // 4.5x too near with a 0.01 1/m sigma) is predicted 35 px off its place in C2; the C2 alignment
 // is gated out in every frame while C1 keeps updating it, so C1 alone carries the wrong depth
-// on (docs/estimator.md "Street: is the disparity biased?": the too-near feature-frames of the
-// street). stereo.max_disagreements removes such a feature after that many frames in a row.
-// (The filter offers no feature ages, so the test checks the removals, not how long each
-// wrong depth lived.)
+// on (docs/estimator-stereo-history.md "Street: is the disparity biased?": the too-near
+// feature-frames of the street). stereo.max_disagreements removes such a feature after that many
+// frames in a row. (The filter offers no feature ages, so the test checks the removals, not how
+// long each wrong depth lived.)
 TEST_CASE("stereo: a feature whose cameras disagree is removed after max_disagreements") {
   const PlaneScene scene(2);
   FilterOptions options = PlaneStereoOptions();

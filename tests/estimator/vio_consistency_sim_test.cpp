@@ -1,7 +1,7 @@
 // Per-frame error of the filter against the simulator's truth, mono vs stereo (issue 17,
-// docs/estimator.md "Where stereo departs from mono", session 33). A diagnosis (hidden tag
-// "[.diagnostic]"): runs `vilma vio`'s path (VioPipeline, the IMU and the cameras merged by stamp
-// as vilma vio merges them, start from the sensors) on a simulated data set of
+// docs/estimator-stereo-history.md "Where stereo departs from mono", session 33). A diagnosis
+// (hidden tag "[.diagnostic]"): runs `vilma vio`'s path (VioPipeline, the IMU and the cameras
+// merged by stamp as vilma vio merges them, start from the sensors) on a simulated data set of
 // ~/.cache/vilma/datasets and compares every tracked frame with the ground truth of the data set
 // (position, velocity, attitude, gyroscope and accelerometer biases at the frame's IMU time).
 //

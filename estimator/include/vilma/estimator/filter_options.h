@@ -141,8 +141,8 @@ struct StereoOptions {
   double min_uniqueness_ratio = 0.0;
   // One 4-row iterated update per feature over both cameras instead of a C1 update followed
   // by a separate C2 update: the two alignments of the same template share its model error
-  // (docs/estimator.md, "The joint update of both cameras"; over the eight simulated sets the
-  // median ATE stereo / mono is 0.59 with it, 0.73 without).
+  // (docs/estimator-stereo-history.md, "The joint update of both cameras"; over the eight simulated
+  // sets the median ATE stereo / mono is 0.59 with it, 0.73 without).
   bool joint_update = true;
   // Correlation [0, 1] of update.pixel_sigma's model error between the C1 and C2 rows of the
   // joint update (0: independent, as two separate updates: median 0.87; 1: 0.64; 0.9: 0.59).
@@ -150,8 +150,8 @@ struct StereoOptions {
   // With the joint update: a feature whose C2 alignment fails in this many consecutive frames
   // while it is predicted inside C2's image and its C1 update succeeds is removed (0: never;
   // off by default, one run per set measured): its two cameras disagree (e.g. a depth far too
-  // near, which C1 alone does not correct; docs/estimator.md "Street: is the disparity
-  // biased?").
+  // near, which C1 alone does not correct; docs/estimator-stereo-history.md "Street: is the
+  // disparity biased?").
   int max_disagreements = 0;
   // A feature with a stereo depth is updated in C1 alone during its first probation_frames
   // accepted updates (0: off); then, if the mean normalized innovation e^T S^-1 e of C1's
@@ -180,8 +180,8 @@ struct FilterOptions {
   bool estimate_extrinsics = false;  // refine T_I_C online (else it is fixed from the rig)
   bool estimate_time_offset = false;  // refine the camera-IMU time offset online
   // Observability-constrained propagation of the yaw direction (OC-EKF, propagation.h
-  // ConstrainYawNullspace; docs/estimator.md "Stereo and noisy IMUs", session 35): the updates
-  // cannot gain information about yaw, which the data do not observe.
+  // ConstrainYawNullspace; docs/estimator-stereo-history.md "Stereo and noisy IMUs", session 35):
+  // the updates cannot gain information about yaw, which the data do not observe.
   bool yaw_observability_constraint = false;
   InitOptions init;
   ProcessNoiseOptions noise;

@@ -72,14 +72,14 @@ struct StereoMatchOptions {
   // Uniqueness: the other local minima of the coarse search (more than 4 px along the curve
   // from the accepted one, coarse residual below 2x this ratio x its) are aligned too; if one
   // is accepted with a mean |residual| below this ratio x the match's, the match is dropped
-  // (kAmbiguous). 0 turns the test off. Why: docs/estimator.md "False stereo matches and the
-  // filter's consistency".
+  // (kAmbiguous). 0 turns the test off. Why: docs/estimator-stereo-history.md "False stereo matches
+  // and the filter's consistency".
   double min_uniqueness_ratio = 0.0;
   PhotometricOptions photometric;
 };
 
 // Why a match was not accepted (counted per reason in FilterStats: the diagnosis of
-// docs/estimator.md "Why stereo matches fail").
+// docs/estimator-stereo-history.md "Why stereo matches fail").
 enum class StereoMatchFailure {
   kNone = 0,
   kNoSample,         // no point of the searched curve projects into camera 2 with a full patch
