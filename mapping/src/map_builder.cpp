@@ -60,7 +60,7 @@ std::string MapBuilderStats::FullReport(const std::string& indent) const {
               : 0.0)
       << " px";
     const char* separator = "; failed: ";
-    for (int k = 0; k < 8; ++k) {
+    for (int k = 0; k < PatchAlignment::kNumStatuses; ++k) {
       if (refinement_failed_by_status[k] == 0) continue;
       s << separator << refinement_failed_by_status[k] << " "
         << PatchAlignmentStatusName(static_cast<PatchAlignment::Status>(k));
@@ -343,7 +343,7 @@ bool MapBuilder::AddFrame(const FrameState& state, const std::vector<cv::Mat>& i
       stats_.refinement_splits += refiner.stats().splits - before.splits;
       stats_.refinement_kept += refiner.stats().kept - before.kept;
       stats_.refinement_shift_sum_px += refiner.stats().shift_sum_px - before.shift_sum_px;
-      for (int k = 0; k < 8; ++k) {
+      for (int k = 0; k < PatchAlignment::kNumStatuses; ++k) {
         stats_.refinement_failed_by_status[k] +=
             refiner.stats().failed_by_status[k] - before.failed_by_status[k];
       }

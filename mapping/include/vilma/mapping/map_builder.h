@@ -95,7 +95,7 @@ struct MapBuilderStats {
   // The failed alignments (split or kept) per PatchAlignment::Status, and the sum of |aligned -
   // detected| over the aligned observations (how far the refinement moves the detector's
   // keypoints; its mean is in the report) [px].
-  int64_t refinement_failed_by_status[8] = {};
+  int64_t refinement_failed_by_status[PatchAlignment::kNumStatuses] = {};
   double refinement_shift_sum_px = 0.0;
   int64_t tracks = 0;               // tracks with >= 2 observations
   int64_t single_observations = 0;  // tracks seen once (no landmark)

@@ -136,6 +136,7 @@ struct PatchAlignment {
   enum class Status {
     kOk, kLeftImage, kNotConverged, kTooFar, kLargeError, kBadWarp, kSingular, kOffset
   };
+  static constexpr int kNumStatuses = static_cast<int>(Status::kOffset) + 1;
   Status status = Status::kNotConverged;
   Eigen::Vector2d center = Eigen::Vector2d::Zero();  // in the current image [px]
   Eigen::Matrix2d warp = Eigen::Matrix2d::Identity();
@@ -165,7 +166,7 @@ struct TrackRefinementStats {
   int64_t refined = 0;  // observations moved to the aligned position
   int64_t splits = 0;   // alignments that failed and started a new track ("split")
   int64_t kept = 0;     // alignments that failed, the observation kept at c0 ("keep", "reanchor")
-  int64_t failed_by_status[8] = {};  // the failed alignments per PatchAlignment::Status
+  int64_t failed_by_status[PatchAlignment::kNumStatuses] = {};  // the failed alignments per PatchAlignment::Status
   double shift_sum_px = 0.0;        // sum of |aligned - detected| over the refined ones
 };
 
