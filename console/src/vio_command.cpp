@@ -359,6 +359,17 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
           << " initial depths matched, " << s.stereo_match_failures << " not; "
           << pipeline.stage().counters().frames_without_stereo << " frames without it; "
           << s.stereo_disagreement_removals << " features removed (C1 and C2 disagreeing)\n";
+      // Why initial depths were not matched (estimator/stereo.h StereoMatchFailure).
+      const auto& why = s.stereo_match_failure_reasons;
+      auto reason = [&why](estimator::StereoMatchFailure f) {
+        return why[static_cast<std::size_t>(f)];
+      };
+      out << "  stereo unmatched " << reason(estimator::StereoMatchFailure::kNoSample)
+          << " no sample, " << reason(estimator::StereoMatchFailure::kNotConverged)
+          << " not converged, " << reason(estimator::StereoMatchFailure::kResidual)
+          << " residual, " << reason(estimator::StereoMatchFailure::kNoDepth) << " no depth >= 0, "
+          << reason(estimator::StereoMatchFailure::kEpipolar) << " off the epipolar curve, "
+          << reason(estimator::StereoMatchFailure::kAmbiguous) << " ambiguous\n";
       if (options.stereo.probation_frames > 0) {
         out << "  probation        " << s.probation_passes
             << " stereo depths confirmed by the VIO camera's flow, " << s.probation_removals
