@@ -101,14 +101,14 @@ TEST_CASE("vilma vio runs on the EuRoC static slice and is deterministic") {
   std::filesystem::remove(b);
 }
 
-TEST_CASE("vilma vio --profile: parsed, not with --config, an unknown profile is bad input") {
+TEST_CASE("vilma vio --profile: parsed, the base of --config, an unknown profile is bad input") {
   CHECK(ParseVioArgs({"d", "--out", "t.txt"}).profile == "auto");
   CHECK(ParseVioArgs({"d", "--out", "t.txt", "--profile", "euroc"}).profile == "euroc");
-  CHECK_THROWS_AS(ParseVioArgs({"d", "--out", "t.txt", "--profile", "euroc", "--config", "c.yaml"}),
-                  UsageError);
+  const VioCommandOptions both =
+      ParseVioArgs({"d", "--out", "t.txt", "--profile", "euroc", "--config", "c.yaml"});
+  CHECK(both.profile == "euroc");
+  CHECK(both.config_path == "c.yaml");
   std::ostringstream out, err;
-  CHECK(RunVioCommand({"d", "--out", "t.txt", "--profile", "euroc", "--config", "c.yaml"}, out,
-                      err) == kExitUsage);
   const std::string data = std::string(VILMA_SHARED_DATA_DIR) + "/euroc_V1_01_micro";
   if (!std::filesystem::exists(data + "/mav0")) VILMA_SKIP(data << " is absent");
   const std::string traj = (std::filesystem::temp_directory_path() /
@@ -162,6 +162,19 @@ TEST_CASE("vilma vio picks the euroc profile for a EuRoC dataset and meets the m
                         out, err) == kExitOk);
   CHECK_THAT(out.str(), Catch::Contains("# filter options: built-in profile default (auto: vilma rig)"));
   CHECK_THAT(out.str(), Catch::Contains("  bearing: 0.001"));
+  std::filesystem::remove(traj);
+  // A partial --config changes only its keys; the rest is the auto-picked euroc profile's
+  // (40 feature slots), not the simulator defaults' (25).
+  const std::filesystem::path partial = std::filesystem::temp_directory_path() /
+                                        ("vilma_vio_partial_" + std::to_string(::getpid()) + ".yaml");
+  std::ofstream(partial) << "features:\n  detect_below: 21\n";
+  std::ostringstream out2, err2;
+  REQUIRE(RunVioCommand({data, "--out", traj, "--config", partial.string(), "--print-config"},
+                        out2, err2) == kExitOk);
+  CHECK_THAT(out2.str(), Catch::Contains(" over the built-in profile euroc (auto: rig from EuRoC"));
+  CHECK_THAT(out2.str(), Catch::Contains("  max_features: 40"));
+  CHECK_THAT(out2.str(), Catch::Contains("  detect_below: 21"));
+  std::filesystem::remove(partial);
   std::filesystem::remove(traj);
 }
 

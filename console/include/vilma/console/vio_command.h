@@ -24,8 +24,8 @@ namespace vilma::console {
 
 struct VioCommandOptions {
   std::string dataset;          // positional, required
-  std::string config_path;      // --config, empty: the built-in profile below
-  // --profile: built-in filter options (estimator::FilterOptionsProfile) when no --config:
+  std::string config_path;      // --config over the profile below (absent keys: the profile's)
+  // --profile: built-in filter options (estimator::FilterOptionsProfile), the base of --config:
   // "auto" = "euroc" for a dataset whose rig comes from its EuRoC sensor.yaml files (a real
   // EuRoC/ASL recording: no rig.yaml, no --rig), else "default".
   std::string profile = "auto";
