@@ -40,6 +40,9 @@
 #   VIO_MAP_DAEMON_CONFIG  daemon config (--config) for the session-0 map run of the vio and opt
 #                    maps, e.g. mapping.map_builder without track refinement (as in bench-optvi.sh;
 #                    give it its own BENCH_WORK); the query runs keep the built-in config
+#   BENCH_QUERY_CONFIG  daemon config (--config) for the query runs (VIO only and LOC), e.g. other
+#                    T_G_M fusion options (a partial file: absent keys keep the defaults; give it
+#                    its own BENCH_WORK, as outputs are reused while newer than their inputs)
 # Maps, logs and daemon runs are reused while newer than their inputs and the binaries.
 set -euo pipefail
 
@@ -58,6 +61,12 @@ cache=${VILMA_CACHE:-$HOME/.cache/vilma}
 datasets=${VILMA_DATASETS:-$cache/datasets}
 work=${BENCH_WORK:-$cache/bench-loc}
 bin=$build_dir/bin
+query_config=()
+if [ -n "${BENCH_QUERY_CONFIG:-}" ]; then
+  [ -f "$BENCH_QUERY_CONFIG" ] || { echo "bench-loc: BENCH_QUERY_CONFIG '$BENCH_QUERY_CONFIG' is not a file" >&2; exit 2; }
+  query_config=(--config "$BENCH_QUERY_CONFIG")
+fi
+
 worlds=("$@")
 map_kinds=${BENCH_MAP:-both}
 case "$map_kinds" in
@@ -216,8 +225,8 @@ for w in "${worlds[@]}"; do
       set_dir=$datasets/$q
       gt=$set_dir/mav0/state_groundtruth_estimate0/data.csv
       make_log "$q"
-      daemon_run "$q-vio" "$q"
-      daemon_run "$q-loc-$kind" "$q" --localization-map "$map_ref"
+      daemon_run "$q-vio" "$q" "${query_config[@]}"
+      daemon_run "$q-loc-$kind" "$q" "${query_config[@]}" --localization-map "$map_ref"
       out=$work/$q-loc-$kind
       "$bin/vilma-lcm-poses" "$out.lcm" --out "$out-pose.txt" > /dev/null 2>&1 || rm -f "$out-pose.txt"
       "$bin/vilma-lcm-poses" "$work/$q-vio.lcm" --channel VILMA_ODOM --out "$work/$q-odom.txt" > /dev/null
