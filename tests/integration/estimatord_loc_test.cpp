@@ -8,6 +8,7 @@
 #include <cmath>
 #include <csignal>
 #include <filesystem>
+#include <fstream>
 #include <iomanip>
 #include <lcm/lcm-cpp.hpp>
 #include <map>
@@ -26,6 +27,7 @@
 #include "vilma/core/geometry.h"
 #include "vilma/core/time.h"
 #include "vilma/drivers/lcm_log.h"
+#include "vilma/eval/trajectory.h"
 #include "test_skip.h"
 
 namespace vilma {
@@ -83,12 +85,14 @@ struct Run {
   std::string output;
 };
 
-Run RunDaemon(const std::string& map, const std::string& name) {
+Run RunDaemon(const std::string& map, const std::string& name,
+              const std::vector<std::string>& extra_args = {}) {
   const LocData& d = Data();
   const std::string out = d.dir + "/" + name + ".lcm";
   std::filesystem::remove(out);
   std::vector<std::string> args = {kDaemon, "--rig", d.session1 + "/rig.yaml", "--input-log", d.log1,
                                    "--lcm-url", "file://" + out + "?mode=w"};
+  args.insert(args.end(), extra_args.begin(), extra_args.end());
   if (!map.empty()) {
     args.push_back("--localization-map");
     args.push_back(map);
@@ -269,6 +273,80 @@ TEST_CASE("vilma-estimatord --localization-map: global pose against a prior map,
   REQUIRE(b.exit_status == 0);
   CHECK(a.pose_payloads == b.pose_payloads);
   CHECK(a.loc_payloads == b.loc_payloads);
+}
+
+// vilma-loc-replay (docs/daemon.md "Replaying the fusion"): the recorded run's results fused
+// again. With the run's own options it must give the run's VILMA_POSE; with other options, what
+// a daemon run with those options publishes.
+TEST_CASE("vilma-loc-replay: a recorded LOC run fused again equals the daemon run with those options",
+          "[integration][daemon][localization]") {
+  if (!HaveBinaries()) return;
+  const LocData& d = Data();
+  const std::string other_config = d.dir + "/forgetting_factor.yaml";
+  std::ofstream(other_config) << "localization:\n  drift_position_m_per_sqrt_s: 0.0\n"
+                                 "  drift_yaw_deg_per_sqrt_s: 0.0\n  min_inliers: 60\n";
+  const Run recorded = RunDaemon(d.map_room, "replay_recorded");
+  const Run other = RunDaemon(d.map_room, "replay_other", {"--config", other_config});
+  REQUIRE(recorded.exit_status == 0);
+  REQUIRE(other.exit_status == 0);
+  REQUIRE(recorded.pose.size() > 100);
+  auto replay = [&](const std::vector<std::string>& config, const std::string& name) {
+    std::vector<std::string> args = {kBin + "vilma-loc-replay", d.dir + "/replay_recorded.lcm",
+                                     "--out", d.dir + "/" + name + ".txt"};
+    args.insert(args.end(), config.begin(), config.end());
+    test::ChildProcess p(args, d.dir + "/" + name + ".out");
+    REQUIRE(p.Wait(30.0) == 0);
+    INFO(test::ReadTextFile(d.dir + "/" + name + ".out"));
+    return ReadTrajectoryFile(d.dir + "/" + name + ".txt");
+  };
+  // Largest position / rotation difference to a run's VILMA_POSE, after checking the stamps.
+  auto compare = [](const Trajectory& replayed, const Run& run) {
+    REQUIRE(replayed.size() == run.pose.size());
+    double dp = 0.0, dq = 0.0;
+    for (std::size_t i = 0; i < run.pose.size(); ++i) {
+      REQUIRE(replayed.t_ns[i] == UtimeToNs(run.pose[i].utime));
+      const Transformation T = PoseOf(run.pose[i]);
+      dp = std::max(dp, (replayed.T_W_B[i].translation() - T.translation()).norm());
+      dq = std::max(dq, AngleBetween(replayed.T_W_B[i].rotation(), T.rotation()));
+    }
+    return std::make_pair(dp, dq);
+  };
+  const auto same = compare(replay({}, "replay_same"), recorded);
+  const auto changed = compare(replay({"--config", other_config}, "replay_changed"), other);
+  // The other options change the published poses: the two daemon runs differ at common frames
+  // (so that the replay's agreement with each of them is not trivial).
+  std::map<int64_t, Transformation> recorded_by_stamp;
+  for (const pose_t& m : recorded.pose) recorded_by_stamp[m.utime] = PoseOf(m);
+  double run_difference = 0.0;
+  for (const pose_t& m : other.pose) {
+    const auto it = recorded_by_stamp.find(m.utime);
+    if (it == recorded_by_stamp.end()) continue;
+    run_difference = std::max(run_difference, (PoseOf(m).translation() - it->second.translation()).norm());
+  }
+  WARN("vilma-loc-replay: same options " << same.first << " m / " << same.second
+                                         << " rad; other options " << changed.first << " m / "
+                                         << changed.second << " rad; the two daemon runs differ by up to "
+                                         << run_difference << " m");
+  // The TUM text has 9 decimals; the replay itself agrees to ~1e-15 (its own report).
+  CHECK(same.first < 1e-7);
+  CHECK(same.second < 1e-7);
+  CHECK(changed.first < 1e-7);
+  CHECK(changed.second < 1e-7);
+  CHECK(run_difference > 1e-4);
+  // Bad input: a clear error and a non-zero exit.
+  auto exit_of = [&](const std::vector<std::string>& args, const std::string& name) {
+    test::ChildProcess p(args, d.dir + "/" + name + ".out");
+    return p.Wait(30.0);
+  };
+  const std::string tool = kBin + "vilma-loc-replay";
+  CHECK(exit_of({tool, d.dir + "/replay_recorded.lcm"}, "replay_no_out") == 2);
+  CHECK(exit_of({tool, d.dir + "/absent.lcm", "--out", d.dir + "/x.txt"}, "replay_absent") == 1);
+  CHECK_THAT(test::ReadTextFile(d.dir + "/replay_absent.out"), Catch::Contains("absent.lcm"));
+  std::ofstream(d.dir + "/bad.yaml") << "localization:\n  max_jump_m: -1\n";
+  CHECK(exit_of({tool, d.dir + "/replay_recorded.lcm", "--out", d.dir + "/x.txt", "--config",
+                 d.dir + "/bad.yaml"}, "replay_bad_config") == 1);
+  CHECK_THAT(test::ReadTextFile(d.dir + "/replay_bad_config.out"), Catch::Contains("max_jump_m"));
+  CHECK(exit_of({tool, d.session1 + "/rig.yaml", "--out", d.dir + "/x.txt"}, "replay_not_a_log") == 1);
 }
 
 TEST_CASE("vilma-estimatord --localization-map: a map of another world gives no global pose",
