@@ -41,6 +41,15 @@ Options:
   --exposure S         exposure time for motion blur in seconds (default 0.004)
   --pixel-noise S      Gaussian pixel noise sigma in grey levels (default 2)
   --no-imu-noise       exact IMU (no white noise, no bias random walk, zero biases)
+  --imu-draw N         another realization of the IMU noise and biases with the same world,
+                       path and images (default 0: the session's own; N >= 1: the IMU's
+                       random stream DeriveSeed(DeriveSeed(seed, 2000 + session), N)); every
+                       world's session-0 set of one seed shares draw 0 (docs/simulator.md)
+  --images-from DIR    do not render: link DIR/mav0/cam0 (cam1) into --out, where DIR is a
+                       rendering with the same world, seed, session, seconds, stereo (and
+                       revisit, time offset, blur, pixel noise) per its sim.yaml, else exit 1
+                       naming the file and field; writes the IMU (e.g. of --imu-draw),
+                       ground truth, rig.yaml and sim.yaml in a second or two
   --live               publish on LCM in real time instead of writing files: GRAY8
                        vilma.image_t on CAM0 (CAM1), vilma.imu_t on IMU
   --lcm-url URL        LCM provider (default $LCM_DEFAULT_URL or udpm://239.255.76.67:7667?ttl=0)
@@ -56,6 +65,7 @@ int main(int argc, char** argv) {
   vilma::sim::SimOptions options;
   std::string out_dir;
   std::string world;
+  std::string images_from;
   bool live = false;
   std::string lcm_url, channel_suffix;
   double rate = 1.0;
@@ -89,6 +99,10 @@ int main(int argc, char** argv) {
       } else if (name == "--no-imu-noise") {
         arg.Flag();
         options.imu = vilma::sim::ImuSimOptions::NoiseFree();
+      } else if (name == "--imu-draw") {
+        options.imu_draw = arg.IntValue(0);
+      } else if (name == "--images-from") {
+        images_from = arg.Value();
       } else if (name == "--live") {
         live = arg.Flag();
       } else if (name == "--lcm-url") {
@@ -119,6 +133,10 @@ int main(int argc, char** argv) {
     return 2;
   }
 #endif
+  if (live && !images_from.empty()) {
+    std::cerr << "vilma-sim: --images-from writes a folder; it does not combine with --live\n";
+    return 2;
+  }
   if (!live && (!lcm_url.empty() || !channel_suffix.empty())) {
     std::cerr << "vilma-sim: --lcm-url and --channel-suffix need --live\n";
     return 2;
@@ -127,6 +145,7 @@ int main(int argc, char** argv) {
   try {
     std::cerr << "vilma-sim: world " << world << ", session " << options.session << ", seed "
               << options.seed << ", " << options.seconds << " s" << (options.stereo ? ", stereo" : "")
+              << (options.imu_draw != 0 ? ", IMU draw " + std::to_string(options.imu_draw) : "")
               << " -> " << (live ? "LCM" : out_dir) << "\n";
     vilma::sim::Simulator sim(options);
     const auto& r = sim.trajectory_report();
@@ -142,6 +161,13 @@ int main(int argc, char** argv) {
       return vilma::sim::PublishLive(&sim, lo, std::cerr);
     }
 #endif
+    if (!images_from.empty()) {
+      const vilma::sim::DatasetSummary s = sim.WriteDatasetWithImagesFrom(out_dir, images_from);
+      std::cerr << "wrote " << s.num_imu_samples << " IMU samples in " << s.total_seconds
+                << " s; images of " << s.num_frames << " frames linked from " << images_from
+                << "\n";
+      return 0;
+    }
     const vilma::sim::DatasetSummary s = sim.WriteDataset(out_dir, &std::cerr);
     std::cerr << "wrote " << s.num_images << " images, " << s.num_imu_samples
               << " IMU samples in " << s.total_seconds << " s; rendering " << s.frames_per_second()

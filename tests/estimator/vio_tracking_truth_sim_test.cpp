@@ -23,7 +23,8 @@
 // one realization of the noise, this writes copies of a set with the same images (links) and
 // the same trajectory but another IMU realization: VILMA_DIAG_IMU_VARIANTS, a comma-separated
 // list of N (N = 0 reproduces the set's own IMU file, N >= 1 draws the IMU from
-// DeriveSeed(DeriveSeed(seed, 2000 + session), N)), "exact" (no white noise, no random walk,
+// DeriveSeed(DeriveSeed(seed, 2000 + session), N); `vilma-sim --imu-draw N --images-from DIR`
+// writes the same copy), "exact" (no white noise, no random walk,
 // zero biases), or one part of the noise model drawn from the set's own stream: "gyro" (the
 // gyroscope's white noise, bias and walk; exact accelerometer), "accel" (the converse), "white"
 // (white noise only), "walk" (biases and walk only), into VILMA_DIAG_OUT/<set>-imu<N>.
@@ -58,31 +59,11 @@
 #include "vilma/estimator/vio_pipeline.h"
 #include "vilma/sim/imu_sim.h"
 #include "vilma/sim/random.h"
+#include "vilma/sim/sim_yaml.h"
 #include "vilma/sim/simulator.h"
 
 namespace vilma::estimator {
 namespace {
-
-// The vilma-sim options recorded in a data set's sim.yaml (the keys make-datasets.sh varies).
-sim::SimOptions ReadSimYaml(const std::filesystem::path& path) {
-  sim::SimOptions so;
-  std::ifstream in(path);
-  REQUIRE(in.good());
-  for (std::string line; std::getline(in, line);) {
-    if (line.empty() || line[0] == '#') continue;
-    const std::size_t colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    const std::string key = line.substr(0, colon);
-    const std::string value = line.substr(colon + 2);
-    if (key == "world") so.world = value;
-    if (key == "session") so.session = std::stoi(value);
-    if (key == "seconds") so.seconds = std::stod(value);
-    if (key == "seed") so.seed = std::stoull(value);
-    if (key == "revisit_seconds") so.revisit_seconds = std::stod(value);
-    if (key == "stereo") so.stereo = value == "true";
-  }
-  return so;
-}
 
 struct Observation {
   double t_s = 0.0;
@@ -104,7 +85,7 @@ struct Landmark {
 
 std::vector<Observation> TrackAgainstTruth(const std::filesystem::path& dir, bool stereo,
                                            FilterOptions options) {
-  const sim::SimOptions so = ReadSimYaml(dir / "sim.yaml");
+  const sim::SimOptions so = sim::ReadSimYaml((dir / "sim.yaml").string());
   sim::Simulator simulator(so);
   const AslDataset dataset = AslDataset::Open(dir.string());
   const SensorRig rig = LoadSensorRig((dir / "rig.yaml").string());
@@ -251,14 +232,13 @@ TEST_CASE("stereo diagnosis: feature tracks against the simulator's geometry", "
   }
 }
 
-// Writes `out` = the set `dir` with another IMU realization (see the header comment).
+// Writes `out` = the set `dir` with another IMU realization (see the header comment): the
+// simulator's own IMU draws (`vilma-sim --imu-draw N --images-from DIR`, the same code), or one
+// part of the noise model from the set's own stream.
 void WriteImuVariant(const std::filesystem::path& dir, const std::string& variant,
                      const std::filesystem::path& out) {
-  namespace fs = std::filesystem;
-  const sim::SimOptions so = ReadSimYaml(dir / "sim.yaml");
-  sim::Simulator simulator(so);
-  sim::ImuSimOptions imu_options = so.imu;
-  uint64_t seed = sim::DeriveSeed(so.seed, 2000 + static_cast<uint64_t>(so.session));
+  sim::SimOptions so = sim::ReadSimYaml((dir / "sim.yaml").string());
+  sim::ImuSimOptions& imu_options = so.imu;
   if (variant == "exact") {
     imu_options = sim::ImuSimOptions::NoiseFree();
   } else if (variant == "gyro") {  // the gyroscope's noise, bias and walk; an exact accelerometer
@@ -275,34 +255,14 @@ void WriteImuVariant(const std::filesystem::path& dir, const std::string& varian
     imu_options.initial_accel_bias_sigma = 0.0;
   } else if (variant == "walk") {  // biases and their walk, no white noise
     imu_options.add_white_noise = false;
-  } else if (std::stoi(variant) > 0) {
-    seed = sim::DeriveSeed(seed, static_cast<uint64_t>(std::stoi(variant)));
+  } else {
+    so.imu_draw = std::stoi(variant);
   }
-  sim::Rng rng(seed);
-  const sim::ImuSimResult imu = sim::SimulateImu(simulator.trajectory(), simulator.start_time_ns(),
-                                                 so.seconds, imu_options, &rng);
-  fs::remove_all(out);
-  {
-    AslDatasetWriter writer(out.string(), 0);
-    for (const ImuSample& s : imu.samples) writer.AddImu(s);
-    for (const GroundTruthState& g : imu.ground_truth) writer.AddGroundTruth(g);
-    writer.Finish();
-  }
-  for (const char* cam : {"cam0", "cam1"}) {
-    if (fs::exists(dir / "mav0" / cam)) {
-      fs::remove_all(out / "mav0" / cam);
-      fs::create_directory_symlink(fs::absolute(dir / "mav0" / cam), out / "mav0" / cam);
-    }
-  }
-  if (fs::exists(dir / "mav0/imu0/sensor.yaml")) {
-    fs::copy_file(dir / "mav0/imu0/sensor.yaml", out / "mav0/imu0/sensor.yaml",
-                  fs::copy_options::overwrite_existing);
-  }
-  fs::copy_file(dir / "rig.yaml", out / "rig.yaml", fs::copy_options::overwrite_existing);
-  std::ifstream in(dir / "sim.yaml");
-  std::ofstream yaml(out / "sim.yaml");
-  yaml << in.rdbuf() << "# IMU variant " << variant
-       << " (tests/estimator/vio_tracking_truth_sim_test.cpp): same images, other IMU draws\n";
+  sim::Simulator simulator(so);
+  simulator.WriteDatasetWithImagesFrom(out.string(), dir.string());
+  std::ofstream(out / "sim.yaml", std::ios::app)
+      << "# IMU variant " << variant
+      << " (tests/estimator/vio_tracking_truth_sim_test.cpp): same images, other IMU draws\n";
 }
 
 TEST_CASE("stereo diagnosis: IMU variants of a simulated set", "[.diagnostic]") {
@@ -322,7 +282,7 @@ TEST_CASE("stereo diagnosis: feature dynamics against the simulator's geometry",
   for (const std::string& name : diag::SetNames("room-easy")) {
     const std::filesystem::path dir = diag::DatasetDir(name);
     if (!std::filesystem::exists(dir / "sim.yaml")) VILMA_SKIP(dir << " is not there");
-    sim::SimOptions so = ReadSimYaml(dir / "sim.yaml");
+    sim::SimOptions so = sim::ReadSimYaml((dir / "sim.yaml").string());
     so.imu = sim::ImuSimOptions::NoiseFree();
     sim::Simulator simulator(so);
     const SensorRig& rig = simulator.rig();

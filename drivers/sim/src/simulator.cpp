@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <iomanip>
 #include <ostream>
@@ -12,6 +13,7 @@
 #include "vilma/core/error.h"
 #include "vilma/core/time.h"
 #include "vilma/sim/random.h"
+#include "vilma/sim/sim_yaml.h"
 
 namespace vilma {
 namespace sim {
@@ -26,6 +28,7 @@ std::string SimOptions::Validate() const {
   if (std::llabs(camera_time_offset_ns) > 100000000) return "camera_time_offset_ns: expected |offset| <= 0.1 s";
   if (!(noise_sigma >= 0.0)) return "noise_sigma: expected >= 0";
   if (!(vignetting >= 0.0 && vignetting < 1.0)) return "vignetting: expected 0 .. <1";
+  if (imu_draw < 0) return "imu_draw: expected >= 0";
   TrajectoryOptions t = trajectory;
   t.duration_s = seconds;
   t.static_start_s = std::min(t.static_start_s, 0.5 * seconds);
@@ -41,6 +44,11 @@ std::string SimOptions::Validate() const {
   e = imu.Validate();
   if (!e.empty()) return "imu." + e;
   return "";
+}
+
+uint64_t ImuSeed(uint64_t seed, int session, int draw) {
+  const uint64_t own = DeriveSeed(seed, 2000 + static_cast<uint64_t>(session));
+  return draw == 0 ? own : DeriveSeed(own, static_cast<uint64_t>(draw));
 }
 
 SensorRig MakeEurocRig(bool stereo, const ImuNoise& noise) {
@@ -118,7 +126,7 @@ Simulator::Simulator(const SimOptions& options) : options_(options) {
                                      &trajectory_report_);
   }
   start_time_ns_ = options.start_time_ns + options.session * 86400LL * kNanosecondsPerSecond;
-  Rng imu_rng(DeriveSeed(options.seed, 2000 + options.session));
+  Rng imu_rng(ImuSeed(options.seed, options.session, options.imu_draw));
   imu_ = SimulateImu(trajectory_, start_time_ns_, options.seconds, options.imu, &imu_rng);
 
   render_options_.noise_sigma = options.noise_sigma;
@@ -187,10 +195,20 @@ DatasetSummary Simulator::WriteDataset(const std::string& out_dir, std::ostream*
       *log << "frame " << i + 1 << "/" << num_frames_ << "\n" << std::flush;
     }
   }
-  for (const ImuSample& s : imu_.samples) writer.AddImu(s);
-  for (const GroundTruthState& g : imu_.ground_truth) writer.AddGroundTruth(g);
-  writer.Finish();
   WriteEurocSensorYamls(rig_, writer.mav0_dir());
+  WriteImuAndFiles(&writer, out_dir, "");
+  summary.num_frames = num_frames_;
+  summary.num_imu_samples = static_cast<int>(imu_.samples.size());
+  summary.render_seconds = render_s;
+  summary.total_seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
+  return summary;
+}
+
+void Simulator::WriteImuAndFiles(AslDatasetWriter* writer, const std::string& out_dir,
+                                 const std::string& extra) const {
+  for (const ImuSample& s : imu_.samples) writer->AddImu(s);
+  for (const GroundTruthState& g : imu_.ground_truth) writer->AddGroundTruth(g);
+  writer->Finish();
   SaveSensorRig(rig_, out_dir + "/rig.yaml");
   std::ostringstream info;
   info << std::setprecision(17);
@@ -209,10 +227,45 @@ DatasetSummary Simulator::WriteDataset(const std::string& out_dir, std::ostream*
        << "lighting_offset: " << render_options_.offset << "\n"
        << "frames: " << num_frames_ << "\n"
        << "imu_samples: " << imu_.samples.size() << "\n";
+  // Written only for another draw, so that the sets' own sim.yaml stay as before.
+  if (options_.imu_draw != 0) info << "imu_draw: " << options_.imu_draw << "\n";
+  info << extra;
   WriteFileAtomically(out_dir + "/sim.yaml", info.str());
+}
+
+DatasetSummary Simulator::WriteDatasetWithImagesFrom(const std::string& out_dir,
+                                                     const std::string& images_dir) {
+  namespace fs = std::filesystem;
+  using Clock = std::chrono::steady_clock;
+  const auto t_start = Clock::now();
+  const std::string error = CheckSameImages(images_dir, options_, num_frames_);
+  if (!error.empty()) throw InputError(error);
+  std::error_code ec;
+  if (fs::exists(out_dir) && fs::equivalent(out_dir, images_dir, ec)) {
+    throw InputError(FormatInputError(out_dir, "", "expected another folder than --images-from's"));
+  }
+  const int num_cameras = static_cast<int>(rig_.cameras.size());
+  std::vector<fs::path> targets;
+  for (int c = 0; c < num_cameras; ++c) {
+    targets.push_back(fs::canonical(fs::path(images_dir) / "mav0" / ("cam" + std::to_string(c))));
+  }
+  // IMU and ground truth only; the cameras are linked, so their sensor.yaml are the source's.
+  AslDatasetWriter writer(out_dir, 0);
+  SensorRig imu_rig = rig_;
+  imu_rig.cameras.clear();
+  WriteEurocSensorYamls(imu_rig, writer.mav0_dir());
+  for (int c = 0; c < num_cameras; ++c) {
+    const fs::path link = fs::path(writer.mav0_dir()) / ("cam" + std::to_string(c));
+    fs::remove_all(link);  // an earlier rendering's folder, or a link (not followed)
+    fs::create_directory_symlink(targets[c], link);
+  }
+  WriteImuAndFiles(&writer, out_dir,
+                   "images_from: " + fs::absolute(images_dir).lexically_normal().string() + "\n");
+  DatasetSummary summary;
+  summary.trajectory = trajectory_report_;
   summary.num_frames = num_frames_;
+  summary.num_images = 0;
   summary.num_imu_samples = static_cast<int>(imu_.samples.size());
-  summary.render_seconds = render_s;
   summary.total_seconds = std::chrono::duration<double>(Clock::now() - t_start).count();
   return summary;
 }

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "vilma/core/asl_dataset.h"
 #include "vilma/core/rig.h"
 #include "vilma/sim/imu_sim.h"
 #include "vilma/sim/renderer.h"
@@ -40,11 +41,19 @@ struct SimOptions {
   double revisit_seconds = 0.0;
   RevisitOptions revisit;
   ImuSimOptions imu;
+  // Which realization of the IMU noise and biases (docs/simulator.md "IMU draws"): 0 = the
+  // session's own (random stream ImuSeed(seed, session, 0)), N >= 1 = another one with the same
+  // world, path and images (ImuSeed(seed, session, N)).
+  int imu_draw = 0;
   // Time of the first sample [ns]; EuRoC-like epoch stamps. Session k starts k days later.
   int64_t start_time_ns = 1600000000000000000;
 
   std::string Validate() const;
 };
+
+// The IMU's random stream: DeriveSeed(seed, 2000 + session) for draw 0 (every world's session-0
+// set of one seed shares it), DeriveSeed(DeriveSeed(seed, 2000 + session), draw) for draw >= 1.
+uint64_t ImuSeed(uint64_t seed, int session, int draw);
 
 // The EuRoC VI-sensor rig: cam0 (and cam1) intrinsics, radial-tangential distortion and
 // T_I_C from EuRoC's sensor.yaml T_BS (the IMU is the body frame), ADIS16448 noise.
@@ -86,7 +95,19 @@ class Simulator {
   // `sim.yaml` (the options) into `out_dir`. Progress lines go to `log` if given.
   DatasetSummary WriteDataset(const std::string& out_dir, std::ostream* log = nullptr);
 
+  // The same folder without rendering: mav0/cam0 (cam1) are symbolic links to the image folders
+  // of `images_dir` (to their resolved targets), an earlier rendering whose sim.yaml matches
+  // these options but for the IMU draw (CheckSameImages in sim_yaml.h); the IMU, ground truth,
+  // imu0/sensor.yaml, rig.yaml and sim.yaml (with `images_from:`) are written. Throws
+  // InputError naming the file and field when the rendering differs.
+  DatasetSummary WriteDatasetWithImagesFrom(const std::string& out_dir,
+                                            const std::string& images_dir);
+
  private:
+  // imu0 and ground truth through `writer`, rig.yaml and sim.yaml (`extra` appended).
+  void WriteImuAndFiles(AslDatasetWriter* writer, const std::string& out_dir,
+                        const std::string& extra) const;
+
   SimOptions options_;
   World world_;
   SensorRig rig_;
