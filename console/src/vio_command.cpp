@@ -367,6 +367,17 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
           << " residual, " << reason(estimator::StereoMatchFailure::kNoDepth) << " no depth >= 0, "
           << reason(estimator::StereoMatchFailure::kEpipolar) << " off the epipolar curve, "
           << reason(estimator::StereoMatchFailure::kAmbiguous) << " ambiguous\n";
+      // Features that started without a stereo depth: how many the second camera's update
+      // caught later, and what the session-38 options converted (docs/estimator.md).
+      out << "  stereo later     " << s.unmatched_taking_c2
+          << " features without an initial depth took a C2 update later (after "
+          << (s.unmatched_taking_c2 > 0
+                  ? static_cast<double>(s.unmatched_c2_updates_before) / s.unmatched_taking_c2
+                  : 0.0)
+          << " updates on average); " << s.stereo_candidates_skipped
+          << " candidates skipped unmatched; deferred matches " << s.deferred_matches
+          << " applied, " << s.deferred_match_gated << " gated out, " << s.deferred_match_failures
+          << " tries unmatched\n";
       if (options.stereo.probation_frames > 0) {
         out << "  probation        " << s.probation_passes
             << " stereo depths confirmed by the VIO camera's flow, " << s.probation_removals

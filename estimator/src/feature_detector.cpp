@@ -50,6 +50,16 @@ std::string FeatureDetectorOptions::Validate() const {
 std::vector<FeatureCandidate> DetectFeatures(const ImagePyramid& pyramid,
                                              const std::vector<Eigen::Vector2d>& occupied,
                                              int max_new, const FeatureDetectorOptions& options) {
+  return DetectFeatures(pyramid, occupied, max_new, options, nullptr, 0, nullptr);
+}
+
+std::vector<FeatureCandidate> DetectFeatures(
+    const ImagePyramid& pyramid, const std::vector<Eigen::Vector2d>& occupied, int max_new,
+    const FeatureDetectorOptions& options,
+    const std::function<bool(const FeatureCandidate&)>& accept, int max_refusals,
+    int* refusals) {
+  int refused = 0;
+  if (refusals != nullptr) *refusals = 0;
   const std::string error = options.Validate();
   if (!error.empty()) throw std::invalid_argument("DetectFeatures: " + error);
   std::vector<FeatureCandidate> out;
@@ -146,13 +156,18 @@ std::vector<FeatureCandidate> DetectFeatures(const ImagePyramid& pyramid,
     if (static_cast<int>(out.size()) >= max_new) break;
     if (bucket_taken[static_cast<std::size_t>(c.bucket)]) continue;
     if (!far_from(c.pixel, out, [](const FeatureCandidate& f) { return f.pixel; })) continue;
-    bucket_taken[static_cast<std::size_t>(c.bucket)] = 1;
     FeatureCandidate f;
     f.pixel = c.pixel;
     f.level = c.level;
     f.score = c.score;
+    if (accept && refused < max_refusals && !accept(f)) {
+      ++refused;  // passed over: the next candidate of this bucket may be taken
+      continue;
+    }
+    bucket_taken[static_cast<std::size_t>(c.bucket)] = 1;
     out.push_back(f);
   }
+  if (refusals != nullptr) *refusals = refused;
   return out;
 }
 

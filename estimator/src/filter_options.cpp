@@ -111,6 +111,10 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("stereo", "persistent_disparity_sigma", o.stereo.persistent_disparity_sigma);
   v("stereo", "max_features", o.stereo.max_features);
   v("stereo", "detect_below", o.stereo.detect_below);
+  v("stereo", "candidates_per_slot", o.stereo.candidates_per_slot);
+  v("stereo", "deferred_match_frames", o.stereo.deferred_match_frames);
+  v("stereo", "match_candidates", o.stereo.match_candidates);
+  v("stereo", "match_align_iterations", o.stereo.match_align_iterations);
 }
 
 }  // namespace
@@ -248,6 +252,14 @@ std::string StereoOptions::Validate() const {
     return "max_features: expected 0 (features.max_features) or 1..1000";
   }
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("detect_below", detect_below, 0));
+  if (candidates_per_slot < 0 || candidates_per_slot > 100) {
+    return "candidates_per_slot: expected 0 (off) .. 100";
+  }
+  if (deferred_match_frames < 0) return "deferred_match_frames: expected >= 0 (0: off)";
+  if (match_candidates < 1 || match_candidates > 100) return "match_candidates: expected 1..100";
+  if (match_align_iterations < 0 || match_align_iterations > 1000) {
+    return "match_align_iterations: expected 0 (update.align_iterations) .. 1000";
+  }
   return "";
 }
 

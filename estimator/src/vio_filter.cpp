@@ -374,6 +374,7 @@ void VioFilter::RemoveFeature(int slot) {
   tracks_[i].template_updates = 0;
   tracks_[i].probation = 0;
   tracks_[i].probation_nis = 0.0;
+  tracks_[i].deferred_tries = 0;
 }
 
 void VioFilter::AddFeatures() {
@@ -387,8 +388,20 @@ void VioFilter::AddFeatures() {
     camera_.camera.Project(f.mu_C, &px);  // (td is far below a pixel's worth of motion here)
     occupied_.push_back(px);
   }
+  const int free_slots = fo.max_features - active;
+  // stereo.candidates_per_slot: candidates without a stereo match are passed over (up to that
+  // many per free slot); the matches made while choosing are kept for the chosen ones.
+  const bool prefer_matched = have_second_image_ && options_.stereo.init_depth &&
+                              options_.stereo.candidates_per_slot > 0;
+  probed_matches_.clear();
+  auto matchable = [this](const FeatureCandidate& c) { return ProbeStereoCandidate(c); };
+  int skipped = 0;
   const std::vector<FeatureCandidate> candidates =
-      DetectFeatures(pyramid_, occupied_, fo.max_features - active, fo.detector);
+      prefer_matched
+          ? DetectFeatures(pyramid_, occupied_, free_slots, fo.detector, matchable,
+                           options_.stereo.candidates_per_slot * free_slots, &skipped)
+          : DetectFeatures(pyramid_, occupied_, free_slots, fo.detector);
+  stats_.stereo_candidates_skipped += skipped;
   std::size_t slot = 0;
   for (const FeatureCandidate& c : candidates) {
     while (slot < x_.features.size() && x_.features[slot].active) ++slot;
@@ -413,6 +426,9 @@ void VioFilter::AddFeatures() {
     track.updated = false;
     track.probation = 0;
     track.probation_nis = 0.0;
+    track.depth_matched = false;
+    track.c2_updates = 0;
+    track.deferred_tries = have_second_image_ ? options_.stereo.deferred_match_frames : 0;
     track.id = next_feature_id_++;
     const int k = FeatureIndex(static_cast<int>(slot));
     P_.middleRows<kFeatureDim>(k).setZero();
@@ -421,7 +437,7 @@ void VioFilter::AddFeatures() {
     P_.block<2, 2>(k, k) = sp * sp * track.D * track.D.transpose();
     P_(k + 2, k + 2) = fo.init_inverse_depth_sigma * fo.init_inverse_depth_sigma;
     if (have_second_image_ && options_.stereo.init_depth) {
-      InitializeDepthFromStereo(static_cast<int>(slot));
+      InitializeDepthFromStereo(static_cast<int>(slot), c.pixel);
     }
   }
 }
@@ -484,28 +500,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
       continue;
     }
     if (joint) {
-      // Both cameras in one update; a camera that fails leaves the other's update alone.
-      const JointUpdate j = UpdateFeatureJoint(slot);
-      Track& track = tracks_[static_cast<std::size_t>(slot)];
-      if (j == JointUpdate::kDone) {
-        ++result.num_updated;
-        ++result.num_stereo_updated;
-        track.disagreements = 0;
-        continue;
-      }
-      if (UpdateFeature(slot)) {
-        ++result.num_updated;
-        // C1 tracks the feature, C2 sees its predicted place but rejects it: counted, and
-        // after stereo.max_disagreements frames in a row the feature is removed below.
-        track.disagreements = j == JointUpdate::kC2Rejected ? track.disagreements + 1 : 0;
-      } else {
-        ++result.num_rejected;
-      }
-      if (j == JointUpdate::kC1Failed && UpdateFeatureInSecond(slot)) {
-        ++result.num_stereo_updated;
-      } else {
-        ++stats_.stereo_rejections;
-      }
+      UpdateFeatureInBoth(slot, &result);
       continue;
     }
     if (UpdateFeature(slot)) {
@@ -517,17 +512,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
   if (joint) {
     stats_.stereo_updates += result.num_stereo_updated;
   } else if (have_second_image_ && options_.stereo.update) {
-    // The same features in the second camera (ROVIO's multi-camera update): one more iterated
-    // update per feature, after all updates in the anchor camera.
-    for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
-      if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
-      if (tracks_[static_cast<std::size_t>(slot)].probation > 0) continue;  // C1 alone
-      if (UpdateFeatureInSecond(slot)) {
-        ++result.num_stereo_updated;
-      } else {
-        ++stats_.stereo_rejections;
-      }
-    }
+    UpdateFeaturesInSecond(&result);
     stats_.stereo_updates += result.num_stereo_updated;
   }
   // Symmetrize in place (no temporary).
@@ -538,6 +523,7 @@ FrameResult VioFilter::AddImage(int64_t t_cam_ns, const cv::Mat& image_gray8,
       P_(c, r) = m;
     }
   }
+  if (have_second_image_ && options_.stereo.deferred_match_frames > 0) DeferredStereoMatches();
   for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
     const FeatureState& f = x_.features[static_cast<std::size_t>(slot)];
     if (!f.active) continue;

@@ -2,6 +2,7 @@
 // VIO camera C1; at a stereo frame each feature is also updated photometrically in camera C2,
 // and a new feature takes its inverse distance from a match in C2's image.
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
 
 #include "vilma/estimator/stereo.h"
@@ -327,8 +328,8 @@ double VioFilter::PersistentDisparityVariance(int slot) const {
   return s * s * static_cast<double>(tracks_[static_cast<std::size_t>(slot)].template_updates + 1);
 }
 
-void VioFilter::InitializeDepthFromStereo(int slot) {
-  const std::size_t i = static_cast<std::size_t>(slot);
+StereoMatch VioFilter::MatchInSecond(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
+                                     const Eigen::Vector3d& mu) const {
   const StereoOptions& so = options_.stereo;
   StereoMatchOptions mo;
   mo.max_inverse_depth = so.max_inverse_depth;
@@ -338,22 +339,149 @@ void VioFilter::InitializeDepthFromStereo(int slot) {
   mo.pixel_sigma = so.match_pixel_sigma;
   mo.min_inverse_depth_sigma = so.min_inverse_depth_sigma;
   mo.min_uniqueness_ratio = so.min_uniqueness_ratio;
-  mo.align_iterations = options_.update.align_iterations;
+  mo.align_iterations = so.match_align_iterations > 0 ? so.match_align_iterations
+                                                      : options_.update.align_iterations;
+  mo.max_candidates = so.match_candidates;
   mo.photometric = options_.features.photometric;
-  FeatureState& f = x_.features[i];
-  const StereoMatch match = MatchInOtherCamera(tracks_[i].patch, tracks_[i].D, pyramid2_,
-                                               second_camera_.camera, T_C2_C1_, f.mu_C, mo);
+  return MatchInOtherCamera(patch, D, pyramid2_, second_camera_.camera, T_C2_C1_, mu, mo);
+}
+
+void VioFilter::UpdateFeatureInBoth(int slot, FrameResult* result) {
+  // Both cameras in one update; a camera that fails leaves the other's update alone.
+  const JointUpdate j = UpdateFeatureJoint(slot);
+  Track& track = tracks_[static_cast<std::size_t>(slot)];
+  if (j == JointUpdate::kDone) {
+    ++result->num_updated;
+    ++result->num_stereo_updated;
+    NoteSecondCameraUpdate(slot);
+    track.disagreements = 0;
+    return;
+  }
+  if (UpdateFeature(slot)) {
+    ++result->num_updated;
+    // C1 tracks the feature, C2 sees its predicted place but rejects it: counted, and after
+    // stereo.max_disagreements frames in a row the feature is removed (AddImage).
+    track.disagreements = j == JointUpdate::kC2Rejected ? track.disagreements + 1 : 0;
+  } else {
+    ++result->num_rejected;
+  }
+  if (j == JointUpdate::kC1Failed && UpdateFeatureInSecond(slot)) {
+    ++result->num_stereo_updated;
+    NoteSecondCameraUpdate(slot);
+  } else {
+    ++stats_.stereo_rejections;
+  }
+}
+
+void VioFilter::UpdateFeaturesInSecond(FrameResult* result) {
+  // The same features in the second camera (ROVIO's multi-camera update): one more iterated
+  // update per feature, after all updates in the anchor camera.
+  for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
+    if (!x_.features[static_cast<std::size_t>(slot)].active) continue;
+    if (tracks_[static_cast<std::size_t>(slot)].probation > 0) continue;  // C1 alone
+    if (UpdateFeatureInSecond(slot)) {
+      ++result->num_stereo_updated;
+      NoteSecondCameraUpdate(slot);
+    } else {
+      ++stats_.stereo_rejections;
+    }
+  }
+}
+
+bool VioFilter::ProbeStereoCandidate(const FeatureCandidate& candidate) {
+  const FeatureOptions& fo = options_.features;
+  Eigen::Vector3d mu;
+  Eigen::Matrix<double, 3, 2> J_mu_px;
+  if (!probe_patch_.Extract(pyramid_, candidate.pixel, Eigen::Matrix2d::Identity(), fo.patch) ||
+      probe_patch_.ShiTomasiScore() < fo.min_shi_tomasi ||
+      !camera_.camera.Unproject(candidate.pixel, &mu, &J_mu_px)) {
+    return true;  // not refused here: AddFeatures drops it as without the probe
+  }
+  const StereoMatch m = MatchInSecond(probe_patch_, BearingBasis(mu).transpose() * J_mu_px, mu);
+  probed_matches_.emplace_back(candidate.pixel, m);
+  return m.found;
+}
+
+void VioFilter::InitializeDepthFromStereo(int slot, const Eigen::Vector2d& pixel) {
+  // A candidate matched while choosing (stereo.candidates_per_slot) keeps that match: the same
+  // patch in the same images.
+  const auto probed = std::find_if(probed_matches_.begin(), probed_matches_.end(),
+                                   [&pixel](const auto& pm) { return pm.first == pixel; });
+  if (probed != probed_matches_.end()) {
+    ApplyInitialStereoMatch(slot, probed->second);
+    return;
+  }
+  const std::size_t i = static_cast<std::size_t>(slot);
+  ApplyInitialStereoMatch(slot, MatchInSecond(tracks_[i].patch, tracks_[i].D,
+                                              x_.features[i].mu_C));
+}
+
+void VioFilter::ApplyInitialStereoMatch(int slot, const StereoMatch& match) {
+  const std::size_t i = static_cast<std::size_t>(slot);
   if (!match.found) {
     ++stats_.stereo_match_failures;
     ++stats_.stereo_match_failure_reasons[static_cast<std::size_t>(match.failure)];
     return;
   }
   ++stats_.stereo_matches;
-  tracks_[i].probation = so.probation_frames;
+  tracks_[i].probation = options_.stereo.probation_frames;
   tracks_[i].probation_nis = 0.0;
-  f.rho = match.rho;
+  tracks_[i].depth_matched = true;
+  tracks_[i].deferred_tries = 0;
+  x_.features[i].rho = match.rho;
   const int k = FeatureIndex(slot);
   P_(k + 2, k + 2) = match.rho_sigma * match.rho_sigma;
+}
+
+void VioFilter::NoteSecondCameraUpdate(int slot) {
+  Track& track = tracks_[static_cast<std::size_t>(slot)];
+  if (track.c2_updates == 0 && !track.depth_matched) {
+    ++stats_.unmatched_taking_c2;
+    stats_.unmatched_c2_updates_before += track.age;
+  }
+  ++track.c2_updates;
+}
+
+void VioFilter::DeferredStereoMatches() {
+  // A feature that started without a stereo depth (no match, or stereo.init_depth off) and has
+  // not been caught by the second camera's update since: its C1 template (warped by the
+  // tracked A: W2 = J_pixel_bearing A D, as in the update) is searched along the epipolar curve
+  // of the current bearing. A match is a measurement of rho, z = rho_match with variance
+  // sigma^2 (match_pixel_sigma through |d pixel / d rho|), applied as a scalar EKF update
+  // (H = e_rho): K = P e_rho / s, s = P_rho,rho + sigma^2, x = x [+] K (z - rho), P -= K s K^T.
+  // The feature keeps the cross-covariances it has gained with the pose since its detection
+  // (an overwrite of rho and its variance would break them). Gated at
+  // update.mahalanobis_threshold on (z - rho)^2 / s (a conservative gate for one DoF).
+  for (int slot = 0; slot < static_cast<int>(x_.features.size()); ++slot) {
+    const std::size_t i = static_cast<std::size_t>(slot);
+    Track& track = tracks_[i];
+    if (!x_.features[i].active || track.deferred_tries <= 0) continue;
+    if (track.depth_matched || track.c2_updates > 0) {  // C2 has it already
+      track.deferred_tries = 0;
+      continue;
+    }
+    --track.deferred_tries;
+    const StereoMatch match =
+        MatchInSecond(track.patch, track.A * track.D, x_.features[i].mu_C);
+    if (!match.found) {
+      ++stats_.deferred_match_failures;
+      continue;
+    }
+    const int k = FeatureIndex(slot) + 2;
+    const double s = P_(k, k) + match.rho_sigma * match.rho_sigma;
+    const double innovation = match.rho - x_.features[i].rho;
+    if (!(s > 0.0) || !(innovation * innovation / s < options_.update.mahalanobis_threshold)) {
+      ++stats_.deferred_match_gated;
+      continue;
+    }
+    deferred_gain_ = P_.col(k) / s;
+    BoxPlus(x_, deferred_gain_ * innovation, &x_iter_);
+    x_ = x_iter_;
+    P_.noalias() -= s * deferred_gain_ * deferred_gain_.transpose();
+    track.depth_matched = true;
+    track.deferred_tries = 0;
+    ++stats_.deferred_matches;
+  }
 }
 
 }  // namespace vilma::estimator

@@ -1,5 +1,6 @@
 #include "vilma/estimator/feature_detector.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -98,6 +99,53 @@ TEST_CASE("Detector keeps away from tracked features and their buckets", "[detec
   const auto second = DetectFeatures(pyramid, occupied, 100, options);
   CHECK(!second.empty());
   CheckSpreadAndSpacing(second, occupied, options, 752, 480);
+}
+
+// The test of each candidate (the filter's stereo.candidates_per_slot): a refused candidate is
+// passed over and the next-best candidate of its bucket may take the bucket; after max_refusals
+// refusals candidates are taken untested.
+TEST_CASE("Detector passes over refused candidates, up to max_refusals", "[detector]") {
+  const cv::Mat image = RectanglesImage(752, 480, 11u);
+  ImagePyramid pyramid;
+  pyramid.Build(image, 4);
+  FeatureDetectorOptions options;
+  const auto plain = DetectFeatures(pyramid, {}, 100, options);
+  REQUIRE(plain.size() > 20);
+  int refusals = -1;
+  // Accepting everything changes nothing.
+  const auto all = DetectFeatures(
+      pyramid, {}, 100, options, [](const FeatureCandidate&) { return true; }, 10, &refusals);
+  CHECK(refusals == 0);
+  REQUIRE(all.size() == plain.size());
+  for (std::size_t i = 0; i < all.size(); ++i) CHECK(all[i].pixel == plain[i].pixel);
+  // Refusing the best candidate: another of its bucket takes its place, the rest is unchanged.
+  const Eigen::Vector2d best = plain[0].pixel;
+  auto not_best = [&best](const FeatureCandidate& c) { return c.pixel != best; };
+  const auto without = DetectFeatures(pyramid, {}, 100, options, not_best, 1, &refusals);
+  CHECK(refusals == 1);
+  const int best_bucket = BucketOf(best, options, 752, 480);
+  int in_bucket = 0;
+  for (const FeatureCandidate& c : without) {
+    CHECK(c.pixel != best);
+    if (BucketOf(c.pixel, options, 752, 480) == best_bucket) ++in_bucket;
+  }
+  CHECK(in_bucket == 1);
+  CheckSpreadAndSpacing(without, {}, options, 752, 480);
+  // With no refusals left the refused candidate is taken untested, as without the test.
+  const auto none_left = DetectFeatures(pyramid, {}, 100, options, not_best, 0, &refusals);
+  CHECK(refusals == 0);
+  REQUIRE(!none_left.empty());
+  CHECK(none_left[0].pixel == best);
+  // Refusing the left half of the image: up to max_refusals candidates there are passed over.
+  auto right_half = [](const FeatureCandidate& c) { return c.pixel.x() >= 376.0; };
+  const auto right = DetectFeatures(pyramid, {}, 100, options, right_half, 1000, &refusals);
+  CHECK(refusals > 0);
+  REQUIRE(!right.empty());
+  for (const FeatureCandidate& c : right) CHECK(c.pixel.x() >= 376.0);
+  const auto some = DetectFeatures(pyramid, {}, 100, options, right_half, 3, &refusals);
+  CHECK(refusals == 3);
+  CHECK(std::any_of(some.begin(), some.end(),
+                    [](const FeatureCandidate& c) { return c.pixel.x() < 376.0; }));
 }
 
 TEST_CASE("Detector is deterministic", "[detector]") {

@@ -114,6 +114,16 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
   CHECK_THROWS_WITH(ParseFilterOptions(replace("max_disagreements: 0", "max_disagreements: -1"),
                                        "f.yaml"),
                     "f.yaml: stereo.max_disagreements: expected >= 0 (0: off)");
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("candidates_per_slot: 0", "candidates_per_slot: -1"), "f.yaml"),
+      "f.yaml: stereo.candidates_per_slot: expected 0 (off) .. 100");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("deferred_match_frames: 10",
+                                               "deferred_match_frames: -2"),
+                                       "f.yaml"),
+                    "f.yaml: stereo.deferred_match_frames: expected >= 0 (0: off)");
+  CHECK_THROWS_WITH(
+      ParseFilterOptions(replace("match_candidates: 3", "match_candidates: 0"), "f.yaml"),
+      "f.yaml: stereo.match_candidates: expected 1..100");
   CHECK_THROWS_WITH(ParseFilterOptions(replace("persistent_pixel_sigma: 0.0",
                                                "persistent_pixel_sigma: -0.1"),
                                        "f.yaml"),

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -43,5 +44,15 @@ struct FeatureCandidate {
 std::vector<FeatureCandidate> DetectFeatures(const ImagePyramid& pyramid,
                                              const std::vector<Eigen::Vector2d>& occupied,
                                              int max_new, const FeatureDetectorOptions& options);
+
+// As above, with a test of each candidate before it is taken (e.g. a stereo match: the
+// filter's stereo.candidates_per_slot): a candidate that `accept` refuses is passed over and its
+// bucket stays free for the next-best candidate there, up to max_refusals times in this call;
+// after that candidates are taken untested as above. `refusals` (optional) gets the count.
+std::vector<FeatureCandidate> DetectFeatures(
+    const ImagePyramid& pyramid, const std::vector<Eigen::Vector2d>& occupied, int max_new,
+    const FeatureDetectorOptions& options,
+    const std::function<bool(const FeatureCandidate&)>& accept, int max_refusals,
+    int* refusals);
 
 }  // namespace vilma::estimator

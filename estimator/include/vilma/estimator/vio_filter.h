@@ -12,12 +12,14 @@
 #include <cstdint>
 #include <opencv2/core.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "vilma/core/geometry.h"
 #include "vilma/core/imu.h"
 #include "vilma/core/rig.h"
 #include "vilma/estimator/filter_options.h"
+#include "vilma/estimator/feature_detector.h"
 #include "vilma/estimator/filter_state.h"
 #include "vilma/estimator/image_pyramid.h"
 #include "vilma/estimator/multilevel_patch.h"
@@ -69,6 +71,17 @@ struct FilterStats {
   int64_t probation_passes = 0;    // ... agreed: the second camera joined
   int64_t patch_refreshes = 0;     // features.refresh_patch_every: templates re-extracted
   int64_t patch_refresh_rejections = 0;  // ... not re-extracted (outside, or score too low)
+  // Features that started without a stereo depth and later took an accepted update in the
+  // second camera (joint or alone), and the sum of their ages (accepted updates) at the first.
+  int64_t unmatched_taking_c2 = 0;
+  int64_t unmatched_c2_updates_before = 0;
+  // stereo.candidates_per_slot: detector candidates passed over for want of a stereo match.
+  int64_t stereo_candidates_skipped = 0;
+  // stereo.deferred_match_frames: later matches applied as an update of rho, matches gated
+  // out (rho too far from the filter's), tries without a match.
+  int64_t deferred_matches = 0;
+  int64_t deferred_match_gated = 0;
+  int64_t deferred_match_failures = 0;
   // stereo_match_failures by reason, indexed by StereoMatchFailure (index 0 unused).
   std::array<int64_t, kNumStereoMatchFailures> stereo_match_failure_reasons{};
 };
@@ -139,6 +152,9 @@ class VioFilter {
     bool updated = false;      // an update was accepted in the current frame
     int probation = 0;         // stereo.probation_frames: C1-only updates still to make
     double probation_nis = 0.0;  // sum of C1's normalized innovations during the probation
+    bool depth_matched = false;  // rho from a stereo match (at detection or deferred)
+    int c2_updates = 0;          // accepted updates in the second camera
+    int deferred_tries = 0;      // stereo.deferred_match_frames: match tries left
   };
 
   bool Initialize(int64_t t_ns, const cv::Mat& image, std::string* why_not);
@@ -153,7 +169,28 @@ class VioFilter {
   // Stereo (vio_filter_stereo.cpp): the photometric update of a feature in the second camera,
   // and the initial inverse distance of a new feature from a stereo match.
   bool UpdateFeatureInSecond(int slot);
-  void InitializeDepthFromStereo(int slot);
+  // stereo.joint_update: the slot's feature in both cameras, each camera alone where the other
+  // fails (result's counts updated). Without the joint update: every feature once more in the
+  // second camera after all C1 updates.
+  void UpdateFeatureInBoth(int slot, FrameResult* result);
+  void UpdateFeaturesInSecond(FrameResult* result);
+  // A new feature's initial depth at its detection pixel (a match made by ProbeStereoCandidate
+  // for that pixel in this detection, else a new one).
+  void InitializeDepthFromStereo(int slot, const Eigen::Vector2d& pixel);
+  // stereo.candidates_per_slot: whether a detector candidate has a stereo match (kept in
+  // probed_matches_); candidates that cannot become features are not refused here.
+  bool ProbeStereoCandidate(const FeatureCandidate& candidate);
+  // The stereo match (MatchInOtherCamera with the stereo options) of a C1 template with
+  // tangent-from-pixel D (A D for a tracked feature) at bearing mu in the second image.
+  StereoMatch MatchInSecond(const MultilevelPatch& patch, const Eigen::Matrix2d& D,
+                            const Eigen::Vector3d& mu) const;
+  // A new feature's initial depth from a match (counted; the rho state and its variance set).
+  void ApplyInitialStereoMatch(int slot, const StereoMatch& match);
+  // stereo.deferred_match_frames: features without a stereo depth try the match again; a
+  // match is an EKF update of rho (vio_filter_stereo.cpp).
+  void DeferredStereoMatches();
+  // Bookkeeping of an accepted second-camera update of the slot's feature.
+  void NoteSecondCameraUpdate(int slot);
   // stereo.joint_update: C1 and C2 of one feature in one 4-row iterated update with the
   // correlated model error of StereoJointNoise. kC1Failed / kC2Failed: that camera's
   // prediction, alignment or gate failed (or the joint step did not converge); nothing was
@@ -196,6 +233,10 @@ class VioFilter {
   // C2 measurement does not depend on the (possibly estimated) T_I_C1 of the state.
   Transformation T_C2_C1_;
   ImagePyramid pyramid2_;         // stereo: the second image of the current frame
+  MultilevelPatch probe_patch_;   // stereo.candidates_per_slot: a candidate's patch
+  Eigen::VectorXd deferred_gain_;  // stereo.deferred_match_frames: the gain of one rho update
+  // stereo.candidates_per_slot: the detector candidates matched in this detection (pixel, match).
+  std::vector<std::pair<Eigen::Vector2d, StereoMatch>> probed_matches_;
   bool have_second_image_ = false;
   FilterOptions options_;
   PropagationNoise noise_;
