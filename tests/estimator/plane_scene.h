@@ -14,6 +14,7 @@
 
 #include "vilma/core/imu.h"
 #include "vilma/core/rig.h"
+#include "vilma/estimator/filter_options.h"
 
 namespace vilma::estimator::testing {
 
@@ -86,5 +87,17 @@ class PlaneScene {
   cv::Mat texture_;
   SensorRig rig_;
 };
+
+// The filter options of the plane-scene stereo runs: few features (the scene's texture), stereo
+// on with the mono feature counts.
+inline FilterOptions PlaneStereoOptions() {
+  FilterOptions options;
+  options.features.max_features = 12;
+  options.features.detect_below = 8;
+  options.stereo.enabled = true;
+  options.stereo.max_features = 0;  // the same counts as mono
+  options.stereo.detect_below = 0;
+  return options;
+}
 
 }  // namespace vilma::estimator::testing

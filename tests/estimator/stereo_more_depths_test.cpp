@@ -15,16 +15,7 @@ namespace {
 
 using testing::PlaneScene;
 
-// As stereo_test.cpp's plane runs: few features (the scene's texture), stereo on.
-FilterOptions PlaneStereoOptions() {
-  FilterOptions options;
-  options.features.max_features = 12;
-  options.features.detect_below = 8;
-  options.stereo.enabled = true;
-  options.stereo.max_features = 0;  // the same counts as mono
-  options.stereo.detect_below = 0;
-  return options;
-}
+using testing::PlaneStereoOptions;
 
 // Runs the filter over `seconds` of the scene; `second` makes the second camera's image from
 // the render. Returns the final position error [m].

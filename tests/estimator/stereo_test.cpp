@@ -15,6 +15,7 @@ namespace vilma::estimator {
 namespace {
 
 using testing::PlaneScene;
+using testing::PlaneStereoOptions;
 
 // A radtan camera and a rotated, translated second camera: every term of the Jacobians matters.
 Camera DistortedCamera() {
@@ -276,16 +277,6 @@ TEST_CASE("a stereo match with a second, equally good place on the line is ambig
   CHECK(std::abs(single.rho - rho_true) < 0.02);
 }
 
-// The filter options of the plane-scene runs: few features (the scene's texture), stereo on.
-FilterOptions PlaneStereoOptions() {
-  FilterOptions options;
-  options.features.max_features = 12;
-  options.features.detect_below = 8;
-  options.stereo.enabled = true;
-  options.stereo.max_features = 0;  // the same counts as mono
-  options.stereo.detect_below = 0;
-  return options;
-}
 
 // Runs the filter over the scene (stereo or mono) and returns the final position error [m].
 double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, double seconds,
