@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -15,6 +16,7 @@
 #include "vilma/core/imu.h"
 #include "vilma/core/rig.h"
 #include "vilma/estimator/filter_options.h"
+#include "vilma/estimator/vio_filter.h"
 
 namespace vilma::estimator::testing {
 
@@ -98,6 +100,28 @@ inline FilterOptions PlaneStereoOptions() {
   options.stereo.max_features = 0;  // the same counts as mono
   options.stereo.detect_below = 0;
   return options;
+}
+
+// Runs `filter` over `seconds` of the scene (images at 20 Hz, IMU at 200 Hz). With `second`,
+// each frame also gets a second image made from camera 1's render (the identity for plain
+// stereo); without it the frames are mono. Returns the final position error [m] against the
+// motion since initialization; *resets counts the frames that reset the filter.
+inline double RunPlaneScene(const PlaneScene& scene, double seconds, VioFilter* filter,
+                            const std::function<cv::Mat(const cv::Mat&)>& second, int* resets) {
+  const int64_t imu_dt = 5'000'000, cam_dt = 50'000'000;
+  int64_t next_imu = 0;
+  double t_init = -1.0;
+  *resets = 0;
+  for (int i = 0; i <= static_cast<int>(seconds * 20); ++i) {
+    const int64_t t_cam = i * cam_dt;
+    for (; next_imu <= t_cam + imu_dt; next_imu += imu_dt) filter->AddImu(scene.Imu(next_imu));
+    const double t = static_cast<double>(t_cam) * 1e-9;
+    const FrameResult r = second ? filter->AddImage(t_cam, scene.Render(t, 0), second(scene.Render(t, 1)))
+                                 : filter->AddImage(t_cam, scene.Render(t, 0));
+    if (r.reset) ++*resets;
+    if (r.initialized_now) t_init = t;
+  }
+  return (filter->state().p_M_I - (scene.Position(seconds) - scene.Position(t_init))).norm();
 }
 
 }  // namespace vilma::estimator::testing

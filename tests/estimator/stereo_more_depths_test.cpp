@@ -17,22 +17,14 @@ using testing::PlaneScene;
 
 using testing::PlaneStereoOptions;
 
-// Runs the filter over `seconds` of the scene; `second` makes the second camera's image from
-// the render. Returns the final position error [m].
+// The scene's run (testing::RunPlaneScene) without resets; `second` makes the second camera's
+// image from the render. Returns the final position error [m].
 double Run(const PlaneScene& scene, double seconds, VioFilter* filter,
            const std::function<cv::Mat(const cv::Mat&)>& second) {
-  const int64_t imu_dt = 5'000'000, cam_dt = 50'000'000;
-  int64_t next_imu = 0;
-  double t_init = -1.0;
-  for (int i = 0; i <= static_cast<int>(seconds * 20); ++i) {
-    const int64_t t_cam = i * cam_dt;
-    for (; next_imu <= t_cam + imu_dt; next_imu += imu_dt) filter->AddImu(scene.Imu(next_imu));
-    const double t = static_cast<double>(t_cam) * 1e-9;
-    const FrameResult r = filter->AddImage(t_cam, scene.Render(t, 0), second(scene.Render(t, 1)));
-    CHECK_FALSE(r.reset);
-    if (r.initialized_now) t_init = t;
-  }
-  return (filter->state().p_M_I - (scene.Position(seconds) - scene.Position(t_init))).norm();
+  int resets = 0;
+  const double error = testing::RunPlaneScene(scene, seconds, filter, second, &resets);
+  CHECK(resets == 0);
+  return error;
 }
 
 // Active features whose inverse distance is more than `tolerance` (relative) off the plane's.

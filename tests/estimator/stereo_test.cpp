@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <catch2/catch.hpp>
+#include <functional>
 #include <cmath>
 #include <random>
 
@@ -281,21 +282,13 @@ TEST_CASE("a stereo match with a second, equally good place on the line is ambig
 // Runs the filter over the scene (stereo or mono) and returns the final position error [m].
 double RunStereoScene(const PlaneScene& scene, const FilterOptions& options, double seconds,
                       VioFilter** out_filter, VioFilter* filter) {
-  const int64_t imu_dt = 5'000'000, cam_dt = 50'000'000;
-  int64_t next_imu = 0;
-  double t_init = -1.0;
-  for (int i = 0; i <= static_cast<int>(seconds * 20); ++i) {
-    const int64_t t_cam = i * cam_dt;
-    for (; next_imu <= t_cam + imu_dt; next_imu += imu_dt) filter->AddImu(scene.Imu(next_imu));
-    const double t = static_cast<double>(t_cam) * 1e-9;
-    const FrameResult r = options.stereo.enabled
-                              ? filter->AddImage(t_cam, scene.Render(t, 0), scene.Render(t, 1))
-                              : filter->AddImage(t_cam, scene.Render(t, 0));
-    CHECK_FALSE(r.reset);
-    if (r.initialized_now) t_init = t;
-  }
+  std::function<cv::Mat(const cv::Mat&)> second;
+  if (options.stereo.enabled) second = [](const cv::Mat& image) { return image; };
+  int resets = 0;
+  const double error = testing::RunPlaneScene(scene, seconds, filter, second, &resets);
+  CHECK(resets == 0);
   *out_filter = filter;
-  return (filter->state().p_M_I - (scene.Position(seconds) - scene.Position(t_init))).norm();
+  return error;
 }
 
 TEST_CASE("stereo: new features start at the matched depth and the motion is tracked") {
