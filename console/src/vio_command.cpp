@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -30,7 +31,7 @@ namespace {
 
 void PrintVioHelp(std::ostream& out) {
   out << "usage: vilma vio DATASET --out TRAJ.txt [--config FILE | --profile NAME] [--rig RIG.yaml]\n"
-         "                 [--camera INDEX] [--log-timing FILE] [--print-config]\n"
+         "                 [--camera INDEX] [--log-timing FILE] [--log-state FILE] [--print-config]\n"
          "                 [--save-map DIR [--map-config FILE]] [--initial-state FILE]\n"
          "                 [--stereo [--stereo-camera INDEX]]\n"
          "\n"
@@ -58,6 +59,9 @@ void PrintVioHelp(std::ostream& out) {
          "                      frames are the synchronized pairs (docs/estimator.md, \"Stereo\")\n"
          "  --stereo-camera INDEX  the second camera (stereo.camera; default: the config's, 1)\n"
          "  --log-timing FILE   per-frame CSV: t_ns,ms,features,updated,rejected,added\n"
+         "  --log-state FILE    per-frame CSV of the state behind the pose: velocity v_M,\n"
+         "                      biases b_g, b_a, their standard deviations and the yaw's\n"
+         "                      (to tell a yaw / gyro-bias drift from a velocity drift)\n"
          "  --print-config      print the effective filter options (and map builder options)\n"
          "  --save-map DIR      also build a VI-map mission (vertices, IMU edges, keyframe\n"
          "                      features of every camera of the dataset, landmarks) and save it\n"
@@ -91,6 +95,8 @@ VioCommandOptions ParseVioArgs(const std::vector<std::string>& args) {
       o.rig_path = next();
     } else if (a == "--log-timing") {
       o.timing_path = next();
+    } else if (a == "--log-state") {
+      o.state_path = next();
     } else if (a == "--save-map") {
       o.save_map_dir = next();
     } else if (a == "--map-config") {
@@ -255,6 +261,10 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     frame_ms.reserve(frames.size());
     std::ostringstream timing;
     timing << "t_ns,ms,features,updated,rejected,added\n";
+    std::ostringstream state_log;
+    state_log << std::setprecision(9)
+              << "t_ns,vx,vy,vz,bgx,bgy,bgz,bax,bay,baz,s_bgx,s_bgy,s_bgz,s_bax,s_bay,s_baz,"
+                 "s_yaw\n";
     int resets = 0;
     estimator::VioFrameOutput r;
     auto consume = [&](estimator::VioFrameOutput& output) {
@@ -287,6 +297,20 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
       frame_ms.push_back(output.filter_ms);
       timing << pose.t_ns << "," << output.filter_ms << "," << f.num_features << ","
              << f.num_updated << "," << f.num_rejected << "," << f.num_added << "\n";
+      if (!o.state_path.empty()) {
+        // The bias sigmas come from the filter as it is now: NextOutput hands out each frame
+        // right after the filter processed it, so they are this frame's.
+        const Eigen::VectorXd d = pipeline.stage().filter().covariance().diagonal();
+        state_log << pose.t_ns;
+        for (int i = 0; i < 3; ++i) state_log << "," << pose.v_M[i];
+        for (int i = 0; i < 3; ++i) state_log << "," << pose.gyro_bias[i];
+        for (int i = 0; i < 3; ++i) state_log << "," << pose.accel_bias[i];
+        for (int i = 0; i < 6; ++i) {
+          state_log << "," << std::sqrt(std::max(0.0, d[estimator::kIdxBg + i]));
+        }
+        // Rotation about M's z (the pose covariance's rotation is global).
+        state_log << "," << std::sqrt(std::max(0.0, pose.covariance(5, 5))) << "\n";
+      }
       if (trajectory.empty() || pose.t_ns > trajectory.t_ns.back()) {
         trajectory.Add(pose.t_ns, pose.T_M_I);
       }
@@ -309,6 +333,7 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
     }
     WriteTrajectoryFile(o.out_path, trajectory, TrajectoryFormat::kTum);
     if (!o.timing_path.empty()) WriteFileAtomically(o.timing_path, timing.str());
+    if (!o.state_path.empty()) WriteFileAtomically(o.state_path, state_log.str());
     const double duration_s =
         frames.size() > 1 ? static_cast<double>(frames.back().t_ns - frames.front().t_ns) * 1e-9
                           : 0.0;
@@ -350,6 +375,11 @@ int RunVioCommand(const std::vector<std::string>& args, std::ostream& out, std::
         << " no IMU, " << sc.frames_dropped_overflow << " overflow; " << sc.images_duplicate
         << " duplicate, " << sc.images_out_of_order << " out-of-order, " << sc.images_late
         << " late images\n";
+    if (options.features.median_depth_init) {
+      out << "  median depth     " << s.median_depth_inits
+          << " new features started at the tracked features' median inverse depth (before "
+             "their own stereo match)\n";
+    }
     if (options.stereo.enabled) {
       out << "  stereo           camera " << options.stereo.camera << ": " << s.stereo_updates
           << " updates accepted, " << s.stereo_rejections << " not; " << s.stereo_matches

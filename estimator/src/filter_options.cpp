@@ -66,6 +66,9 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("features", "max_features", o.features.max_features);
   v("features", "init_inverse_depth", o.features.init_inverse_depth);
   v("features", "init_inverse_depth_sigma", o.features.init_inverse_depth_sigma);
+  v("features", "median_depth_init", o.features.median_depth_init);
+  v("features", "median_depth_max_ratio", o.features.median_depth_max_ratio);
+  v("features", "median_depth_min_features", o.features.median_depth_min_features);
   v("features", "init_bearing_sigma_px", o.features.init_bearing_sigma_px);
   v("features", "max_failures", o.features.max_failures);
   v("features", "min_shi_tomasi", o.features.min_shi_tomasi);
@@ -189,6 +192,9 @@ std::string FeatureOptions::Validate() const {
   VILMA_RETURN_IF_ERROR(ValidatePositive("init_inverse_depth", init_inverse_depth));
   VILMA_RETURN_IF_ERROR(ValidatePositive("init_inverse_depth_sigma", init_inverse_depth_sigma));
   VILMA_RETURN_IF_ERROR(ValidatePositive("init_bearing_sigma_px", init_bearing_sigma_px));
+  VILMA_RETURN_IF_ERROR(ValidatePositive("median_depth_max_ratio", median_depth_max_ratio));
+  VILMA_RETURN_IF_ERROR(
+      ValidateAtLeast("median_depth_min_features", median_depth_min_features, 1));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_failures", max_failures, 1));
   VILMA_RETURN_IF_ERROR(ValidateNonNegative("min_shi_tomasi", min_shi_tomasi));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("detect_below", detect_below, 0));

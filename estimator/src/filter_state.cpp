@@ -1,5 +1,6 @@
 #include "vilma/estimator/filter_state.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "vilma/core/geometry.h"
@@ -77,6 +78,22 @@ Eigen::VectorXd BoxMinus(const FilterState& a, const FilterState& b) {
     d[k + 2] = a.features[i].rho - b.features[i].rho;
   }
   return d;
+}
+
+bool MedianInverseDepth(const FilterState& x, const Eigen::MatrixXd& P, double max_ratio,
+                        int min_count, double* rho) {
+  std::vector<double> known;
+  for (std::size_t i = 0; i < x.features.size(); ++i) {
+    const FeatureState& f = x.features[i];
+    if (!f.active || !(f.rho > 0.0)) continue;
+    const int k = FeatureIndex(static_cast<int>(i)) + 2;
+    if (std::sqrt(std::max(0.0, P(k, k))) <= max_ratio * f.rho) known.push_back(f.rho);
+  }
+  if (static_cast<int>(known.size()) < min_count || known.empty()) return false;
+  const auto mid = known.begin() + static_cast<std::ptrdiff_t>(known.size() / 2);
+  std::nth_element(known.begin(), mid, known.end());
+  *rho = *mid;
+  return true;
 }
 
 }  // namespace vilma::estimator

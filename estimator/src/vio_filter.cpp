@@ -413,9 +413,18 @@ void VioFilter::AddFeatures() {
     Eigen::Matrix<double, 3, 2> J_mu_px;
     if (!camera_.camera.Unproject(c.pixel, &mu, &J_mu_px)) continue;
     FeatureState& f = x_.features[slot];
+    // features.median_depth_init: the depths known now (the slot is still inactive, so not
+    // its own), including the stereo matches of the features added before this one in this
+    // detection (a first detection or a refill after a turn has few tracked depths but many
+    // matched neighbours).
+    f.rho = fo.init_inverse_depth;
+    if (fo.median_depth_init &&
+        MedianInverseDepth(x_, P_, fo.median_depth_max_ratio, fo.median_depth_min_features,
+                           &f.rho)) {
+      ++stats_.median_depth_inits;
+    }
     f.active = true;
     f.mu_C = mu;
-    f.rho = fo.init_inverse_depth;
     track.A.setIdentity();
     track.D = BearingBasis(mu).transpose() * J_mu_px;
     track.failures = 0;

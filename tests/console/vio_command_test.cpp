@@ -5,12 +5,14 @@
 #include "vilma/eval/evaluate.h"
 #include "vilma/eval/trajectory.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
 #include <unistd.h>
+#include <vector>
 
 namespace vilma::console {
 namespace {
@@ -18,13 +20,14 @@ namespace {
 TEST_CASE("vilma vio parses its command line") {
   const VioCommandOptions o =
       ParseVioArgs({"DATA", "--out", "t.txt", "--config=c.yaml", "--rig", "r.yaml", "--camera",
-                    "1", "--log-timing", "timing.csv"});
+                    "1", "--log-timing", "timing.csv", "--log-state", "state.csv"});
   CHECK(o.dataset == "DATA");
   CHECK(o.out_path == "t.txt");
   CHECK(o.config_path == "c.yaml");
   CHECK(o.rig_path == "r.yaml");
   CHECK(o.camera == 1);
   CHECK(o.timing_path == "timing.csv");
+  CHECK(o.state_path == "state.csv");
   CHECK(ParseVioArgs({"--help"}).help);
   CHECK_THROWS_WITH(ParseVioArgs({"DATA"}), Catch::Contains("--out"));
   CHECK_THROWS_WITH(ParseVioArgs({"--out", "t.txt"}), Catch::Contains("DATASET"));
@@ -89,7 +92,9 @@ TEST_CASE("vilma vio runs on the EuRoC static slice and is deterministic") {
   const std::string b = (tmp / ("vilma_vio_test_b_" + pid + ".txt")).string();
   std::ostringstream out, err;
   REQUIRE(RunVioCommand({data, "--out", a}, out, err) == kExitOk);
-  REQUIRE(RunVioCommand({data, "--out", b}, out, err) == kExitOk);
+  // --log-state does not change the estimate; it writes one row per pose.
+  const std::string st = (tmp / ("vilma_vio_test_state_" + pid + ".csv")).string();
+  REQUIRE(RunVioCommand({data, "--out", b, "--log-state", st}, out, err) == kExitOk);
   CHECK_THAT(out.str(), Catch::Contains("real-time factor"));
   std::ifstream fa(a), fb(b);
   std::stringstream sa, sb;
@@ -97,8 +102,25 @@ TEST_CASE("vilma vio runs on the EuRoC static slice and is deterministic") {
   sb << fb.rdbuf();
   CHECK(sa.str().size() > 1000);
   CHECK(sa.str() == sb.str());  // bit-identical output
+  std::ifstream fs(st);
+  std::string line;
+  REQUIRE(std::getline(fs, line));
+  CHECK(line.rfind("t_ns,vx,vy,vz,bgx,", 0) == 0);
+  int rows = 0;
+  while (std::getline(fs, line)) {
+    ++rows;
+    std::stringstream ls(line);
+    std::vector<double> v;
+    for (std::string c; std::getline(ls, c, ',');) v.push_back(std::stod(c));
+    REQUIRE(v.size() == 17u);
+    for (int i = 10; i < 17; ++i) CHECK(v[static_cast<std::size_t>(i)] > 0.0);  // sigmas
+  }
+  const std::string traj = sa.str();
+  const long poses = std::count(traj.begin(), traj.end(), '\n') - 1;  // minus the header
+  CHECK(rows == poses);
   std::filesystem::remove(a);
   std::filesystem::remove(b);
+  std::filesystem::remove(st);
 }
 
 TEST_CASE("vilma vio --profile: parsed, the base of --config, an unknown profile is bad input") {

@@ -117,6 +117,14 @@ TEST_CASE("bad filter configs are rejected naming file, key and expectation") {
   CHECK_THROWS_WITH(
       ParseFilterOptions(replace("candidates_per_slot: 0", "candidates_per_slot: -1"), "f.yaml"),
       "f.yaml: stereo.candidates_per_slot: expected 0 (off) .. 100");
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("median_depth_max_ratio: 0.3",
+                                               "median_depth_max_ratio: 0"),
+                                       "f.yaml"),
+                    Catch::Contains("f.yaml: features.median_depth_max_ratio: expected > 0"));
+  CHECK_THROWS_WITH(ParseFilterOptions(replace("median_depth_min_features: 3",
+                                               "median_depth_min_features: 0"),
+                                       "f.yaml"),
+                    "f.yaml: features.median_depth_min_features: expected >= 1");
   CHECK_THROWS_WITH(ParseFilterOptions(replace("deferred_match_frames: 10",
                                                "deferred_match_frames: -2"),
                                        "f.yaml"),

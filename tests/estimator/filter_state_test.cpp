@@ -78,5 +78,37 @@ TEST_CASE("state boxplus and boxminus are inverse") {
   CHECK(x.num_active() == 2);
 }
 
+TEST_CASE("MedianInverseDepth takes the median over the features with a known depth") {
+  FilterState x;
+  x.features.resize(6);
+  Eigen::MatrixXd P = Eigen::MatrixXd::Zero(x.dim(), x.dim());
+  // (rho, sigma_rho, active): ratios 0.1, 0.2, 0.25, 1.0 (unknown), 0.1 (inactive), 0.1.
+  const double rho[6] = {0.10, 0.05, 0.20, 0.5, 0.3, 0.08};
+  const double sigma[6] = {0.01, 0.01, 0.05, 0.5, 0.03, 0.008};
+  const bool active[6] = {true, true, true, true, false, true};
+  for (int i = 0; i < 6; ++i) {
+    x.features[static_cast<std::size_t>(i)].active = active[i];
+    x.features[static_cast<std::size_t>(i)].rho = rho[i];
+    P(FeatureIndex(i) + 2, FeatureIndex(i) + 2) = sigma[i] * sigma[i];
+  }
+  double median = -1.0;
+  // Known at ratio 0.3: 0.10, 0.05, 0.20, 0.08 -> the upper median 0.10.
+  REQUIRE(MedianInverseDepth(x, P, 0.3, 3, &median));
+  CHECK(median == 0.10);
+  // At ratio 0.15 only 0.10 and 0.08 (0.05 has 0.2, 0.20 has 0.25): two, fewer than three.
+  median = -1.0;
+  CHECK_FALSE(MedianInverseDepth(x, P, 0.15, 3, &median));
+  CHECK(median == -1.0);  // untouched
+  REQUIRE(MedianInverseDepth(x, P, 0.15, 2, &median));
+  CHECK(median == 0.10);
+  // The unknown feature counts once the ratio admits it (1.0): 0.05 0.08 0.10 0.20 0.5.
+  REQUIRE(MedianInverseDepth(x, P, 1.0, 3, &median));
+  CHECK(median == 0.10);
+  // A feature at infinity (rho = 0) has no depth to offer, whatever its sigma.
+  x.features[0].rho = 0.0;
+  REQUIRE(MedianInverseDepth(x, P, 0.3, 3, &median));
+  CHECK(median == 0.08);  // 0.05 0.08 0.20 -> 0.08
+}
+
 }  // namespace
 }  // namespace vilma::estimator

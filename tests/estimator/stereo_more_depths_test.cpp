@@ -128,5 +128,34 @@ TEST_CASE("stereo.deferred_match_frames updates rho from a later match") {
   CHECK(WrongDepths(caught, 0.1) == 0);
 }
 
+// features.median_depth_init: before the motion (1 s) nothing but a stereo match tells a
+// feature's depth. The features of the left third (blank in C2) have none: without the option
+// they stay at the wrong initial 1.5 1/m (the plane is at 3 m: ~0.33), with it they start at
+// the median of the matched ones, i.e. near the plane.
+TEST_CASE("features.median_depth_init starts unmatched features at the matched ones' median") {
+  const PlaneScene scene(2);
+  FilterOptions options = PlaneStereoOptions();
+  options.stereo.deferred_match_frames = 0;  // no later match for the blank third either
+  options.features.init_inverse_depth = 1.5;
+  options.features.init_inverse_depth_sigma = 1.0;
+  VioFilter off(scene.rig(), 0, options);
+  Run(scene, 0.5, &off, BlankLeftThird);
+  options.features.median_depth_init = true;
+  VioFilter on(scene.rig(), 0, options);
+  Run(scene, 0.5, &on, BlankLeftThird);
+  INFO("off: " << off.stats().stereo_match_failures << " unmatched, wrong depths "
+               << WrongDepths(off, 0.2) << "; on: " << on.stats().stereo_match_failures
+               << " unmatched, " << on.stats().median_depth_inits << " at the median, wrong "
+               << WrongDepths(on, 0.2) << " of " << on.state().num_active());
+  CHECK(off.stats().median_depth_inits == 0);
+  REQUIRE(off.stats().stereo_match_failures >= 3);
+  CHECK(WrongDepths(off, 0.5) >= 3);
+  CHECK(on.stats().median_depth_inits >= 3);
+  CHECK(WrongDepths(on, 0.2) <= WrongDepths(off, 0.5) - 3);
+  // The first candidates of the first detection have no matched neighbours yet: they fall back
+  // to init_inverse_depth; at most median_depth_min_features - 1 + the unmatched of those can.
+  CHECK(WrongDepths(on, 0.2) <= 2);
+}
+
 }  // namespace
 }  // namespace vilma::estimator

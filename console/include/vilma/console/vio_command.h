@@ -2,7 +2,7 @@
 // an ASL dataset folder, single-threaded and deterministically.
 //
 //   vilma vio DATASET [--config FILE] [--rig RIG.yaml] [--camera INDEX] --out TRAJ.txt
-//             [--log-timing FILE] [--save-map DIR [--map-config FILE]]
+//             [--log-timing FILE] [--log-state FILE] [--save-map DIR [--map-config FILE]]
 //             [--initial-state GT_FILE] [--stereo [--stereo-camera INDEX]]
 //
 // Rig: --rig, else DATASET/rig.yaml if present (the simulator writes one), else the EuRoC
@@ -33,6 +33,7 @@ struct VioCommandOptions {
   int camera = 0;               // --camera
   std::string out_path;         // --out, required
   std::string timing_path;      // --log-timing, empty: none
+  std::string state_path;       // --log-state, empty: none
   bool print_config = false;    // --print-config: print the effective options
   std::string save_map_dir;     // --save-map, empty: no map
   // --map-config, empty: built-in defaults (= config/map_builder.yaml)

@@ -69,6 +69,12 @@ struct FilterState {
   int num_active() const;
 };
 
+// Median inverse depth of the active features with sqrt(P_rho) / rho <= max_ratio (rho > 0),
+// over at least min_count of them (the upper median for an even count); false when fewer.
+// P: the filter covariance over x's slots.
+bool MedianInverseDepth(const FilterState& x, const Eigen::MatrixXd& P, double max_ratio,
+                        int min_count, double* rho);
+
 // x (+) dx, dx of size x.dim(); inactive slots are left as they are.
 void BoxPlus(const FilterState& x, const Eigen::VectorXd& dx, FilterState* result);
 // a (-) b (same slot layout); inactive slots of b give zeros.

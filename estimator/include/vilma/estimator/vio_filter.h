@@ -69,6 +69,9 @@ struct FilterStats {
   int64_t stereo_disagreement_removals = 0;  // removed after stereo.max_disagreements
   int64_t probation_removals = 0;  // stereo.probation_frames: depth disagreed with C1's flow
   int64_t probation_passes = 0;    // ... agreed: the second camera joined
+  // features.median_depth_init: new features that started at the tracked features' median
+  // inverse depth (before any stereo match of theirs).
+  int64_t median_depth_inits = 0;
   int64_t patch_refreshes = 0;     // features.refresh_patch_every: templates re-extracted
   int64_t patch_refresh_rejections = 0;  // ... not re-extracted (outside, or score too low)
   // Features that started without a stereo depth and later took an accepted update in the
