@@ -183,7 +183,7 @@ struct StereoOptions {
   // per frame; the euroc profile keeps its 40 (docs/estimator.md, session 37).
   int max_features = 60;
   int detect_below = 48;
-  // Session 38 (docs/estimator.md, "More stereo depths"):
+  // Session 38 (docs/estimator-stereo-diagnosis.md, "More stereo depths"):
   // Prefer matchable features: new features are chosen among the detector's candidates by
   // their stereo match; a candidate whose match fails is skipped, up to this many skips per
   // free slot in one detection (the detector is asked for (1 + N) x the free slots); once they
