@@ -177,10 +177,21 @@ MipTexture::MipTexture(const cv::Mat& level0) {
     current.convertTo(level8, CV_8UC1);  // rounds and saturates
     levels_.push_back(level8);
     if (current.cols == 1 && current.rows == 1) break;
-    const int w = std::max(1, current.cols / 2), h = std::max(1, current.rows / 2);
+    // Texel i of level l+1 must cover texels 2i and 2i+1 of level l exactly, as Sample's
+    // coordinate mapping (i + 0.5) 2^l - 0.5 assumes. An odd side is first padded by one
+    // replicated texel (clamp-to-edge, as Bilinear addresses) so that the 2:1 box is exact;
+    // resizing 225 texels to 112 would instead stretch the box to 2.009 texels, and a surface
+    // seen at a level of detail between the two levels would slide by up to one texel as the
+    // camera approaches (texture "swimming": an image motion the geometry does not have).
+    cv::Mat even = current;
+    if (current.cols % 2 != 0 || current.rows % 2 != 0) {
+      cv::copyMakeBorder(current, even, 0, current.rows % 2, 0, current.cols % 2,
+                         cv::BORDER_REPLICATE);
+    }
+    const int w = std::max(1, even.cols / 2), h = std::max(1, even.rows / 2);
     cv::Mat next;
     // INTER_AREA is the box filter for integer factors; filtered in float, stored in 8 bits.
-    cv::resize(current, next, cv::Size(w, h), 0, 0, cv::INTER_AREA);
+    cv::resize(even, next, cv::Size(w, h), 0, 0, cv::INTER_AREA);
     current = next;
   }
   UpdateTable();
