@@ -59,10 +59,15 @@ if [ "${BENCH_STEREO:-0}" = 1 ]; then
   stereo_args=(--stereo)
   dataset=$dataset-stereo
 fi
-if [ ! -f "$dataset/rig.yaml" ]; then
+# Remade when the simulator's output changes (make-datasets.sh's SIM_VERSION).
+sim_key="version=$(sed -n 's/^SIM_VERSION=//p' "$repo_dir/scripts/make-datasets.sh")"
+if [ ! -f "$dataset/rig.yaml" ] || [ "$(cat "$dataset/.vilma-sim-key" 2>/dev/null)" != "$sim_key" ]
+then
   echo "bench-daemon: simulating $preset, $seconds s -> $dataset" >&2
+  rm -rf "$dataset"
   "$bin/vilma-sim" "$preset" --out "$dataset" --seconds "$seconds" --seed 1 "${stereo_args[@]}" \
     > /dev/null
+  echo "$sim_key" > "$dataset/.vilma-sim-key"
 fi
 
 work=$(mktemp -d /tmp/vilma-bench-daemon.XXXXXX)

@@ -64,9 +64,13 @@ fi
 
 step "simulate: 30 s of the 'room' world, stereo, with ground truth (vilma-sim)"
 sim="$cache/room-demo"
-if [ ! -f "$sim/mav0/state_groundtruth_estimate0/data.csv" ]; then
+# Remade when the simulator's output changes (make-datasets.sh's SIM_VERSION) or it is incomplete.
+sim_key="version=$(sed -n 's/^SIM_VERSION=//p' "$repo/scripts/make-datasets.sh") room seed=7 seconds=30 stereo"
+if [ ! -f "$sim/mav0/state_groundtruth_estimate0/data.csv" ] ||
+   [ "$(cat "$sim/.vilma-sim-key" 2>/dev/null)" != "$sim_key" ]; then
   rm -rf "$sim"
   "$bin/vilma-sim" room --out "$sim" --seconds 30 --seed 7 --stereo
+  echo "$sim_key" > "$sim/.vilma-sim-key"
 fi
 "$bin/vilma" rig check "$sim/rig.yaml" | grep -E '^# (imu|camera|baseline)'
 

@@ -34,7 +34,7 @@ ON_DEMAND=(
   "room-long  room       1    0       600     0"
 )
 # Bump when the simulator's output changes, so that old caches are remade.
-SIM_VERSION=1
+SIM_VERSION=2
 # Bump when GenerateRevisitTrajectory changes (only the revisiting sets are remade).
 REVISIT_VERSION=2
 
