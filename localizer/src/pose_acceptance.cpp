@@ -432,7 +432,10 @@ AcceptedPose AcceptPoseOnce(const Camera& camera, const std::vector<Eigen::Vecto
       again.quality.adopted_displaced_rival = true;
       return again;
     }
-    if (q.displaced_rival_ratio > options.max_displaced_rival_ratio) {
+    // A tie (ratio 1 at the default) is ambiguous too: the data explain the displaced pose as
+    // well as the winner, so they do not pick the winner (docs/localizer.md, "The simulated
+    // sessions re-rendered": room-s4 frame 570, 2.05 deg off with a rival of equal support).
+    if (q.displaced_rival_ratio >= options.max_displaced_rival_ratio) {
       out.verdict = PoseVerdict::kAmbiguousPose;
       return out;
     }

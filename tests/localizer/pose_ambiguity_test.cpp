@@ -174,6 +174,12 @@ TEST_CASE("displaced rival: the acceptance gate and its options", "[localization
   options.max_displaced_rival_ratio = 0.5 * on.quality.displaced_rival_ratio;
   const AcceptedPose strict = AcceptPose(cam, s.uv, s.p_G, pose, ransac, options);
   CHECK(strict.verdict == PoseVerdict::kAmbiguousPose);
+  // At the gate exactly (a tie at the default 1.0): ambiguous; just above it: accepted.
+  options.max_displaced_rival_ratio = on.quality.displaced_rival_ratio;
+  CHECK(AcceptPose(cam, s.uv, s.p_G, pose, ransac, options).verdict ==
+        PoseVerdict::kAmbiguousPose);
+  options.max_displaced_rival_ratio = 1.001 * on.quality.displaced_rival_ratio;
+  CHECK(AcceptPose(cam, s.uv, s.p_G, pose, ransac, options).verdict == PoseVerdict::kAccepted);
 
   PoseAcceptanceOptions bad;
   bad.max_displaced_rival_ratio = 0.0;

@@ -79,10 +79,12 @@ struct PoseAcceptanceOptions {
   // Displaced rival (pose_ambiguity.h): the best pose beyond rival_min_position_m OR
   // rival_min_rotation_deg from the winner that shares the winner's inliers (P3P on two of
   // them and one match the winner rejects, displaced_rival_samples samples); its inliers over
-  // the winner's must not exceed max_displaced_rival_ratio. It rejects a winner that the data
-  // do not pin to within the accuracy the benchmark asks (a sideways shift traded for a
-  // rotation when the inliers lie in one depth band). Values above 1 only measure (a rival
-  // with more inliers than the winner is then still tolerated up to that ratio).
+  // the winner's must stay below max_displaced_rival_ratio (at the default 1, a rival with as
+  // many inliers as the winner is ambiguous: since session 40; before, only one with more).
+  // It rejects a winner that the data do not pin to within the accuracy the benchmark asks (a
+  // sideways shift traded for a rotation when the inliers lie in one depth band). Values above
+  // 1 only measure (a rival with more inliers than the winner is then still tolerated below
+  // that ratio).
   // adopt_displaced_rival: a displaced rival with more inliers than the winner replaces it
   // (LO-RANSAC's rule: the most inliers wins; the rival then runs every gate itself).
   // On by default since 2026-11-27: it turned euroc corner frame 71 (2.2 deg off) into a
