@@ -61,6 +61,8 @@ void VisitLocalizerOptions(Options& o, Visitor&& v) {
   v("acceptance", "rival_check", o.acceptance.rival_check);
   v("acceptance", "rival_exclusion_factor", o.acceptance.rival_exclusion_factor);
   v("acceptance", "max_rival_ratio", o.acceptance.max_rival_ratio);
+  v("acceptance", "max_outweighed_rival_ratio", o.acceptance.max_outweighed_rival_ratio);
+  v("acceptance", "min_rival_margin_sigma", o.acceptance.min_rival_margin_sigma);
   v("acceptance", "rival_max_iterations", o.acceptance.rival_max_iterations);
   v("acceptance", "rival_min_position_m", o.acceptance.rival_min_position_m);
   v("acceptance", "rival_min_rotation_deg", o.acceptance.rival_min_rotation_deg);
@@ -68,6 +70,7 @@ void VisitLocalizerOptions(Options& o, Visitor&& v) {
   v("acceptance", "max_displaced_rival_ratio", o.acceptance.max_displaced_rival_ratio);
   v("acceptance", "displaced_rival_samples", o.acceptance.displaced_rival_samples);
   v("acceptance", "adopt_displaced_rival", o.acceptance.adopt_displaced_rival);
+  v("acceptance", "measure_all_gates", o.acceptance.measure_all_gates);
 }
 
 struct UnionFind {

@@ -104,6 +104,12 @@ std::string PoseAcceptanceOptions::Validate() const {
   if (!(max_rival_ratio > 0.0 && max_rival_ratio <= 1.0)) {
     return "max_rival_ratio: expected in (0, 1]";
   }
+  if (!(max_outweighed_rival_ratio >= 0.0 && max_outweighed_rival_ratio <= 1.0)) {
+    return "max_outweighed_rival_ratio: expected in [0, 1] (<= max_rival_ratio: off)";
+  }
+  if (!(min_rival_margin_sigma > 0.0 && std::isfinite(min_rival_margin_sigma))) {
+    return "min_rival_margin_sigma: expected > 0";
+  }
   if (rival_max_iterations < 1) return "rival_max_iterations: expected >= 1";
   if (!(rival_min_position_m >= 0.0)) return "rival_min_position_m: expected >= 0";
   if (!(rival_min_rotation_deg >= 0.0)) return "rival_min_rotation_deg: expected >= 0";
@@ -331,36 +337,39 @@ AcceptedPose AcceptPoseOnce(const Camera& camera, const std::vector<Eigen::Vecto
       q.split_depth_mahalanobis2 = sd.mahalanobis2;
     }
   }
-  if (q.inliers < ransac.min_inliers) {
-    out.verdict = PoseVerdict::kTooFewInliers;
-    return out;
-  }
-  if (q.inliers < q.required_inliers) {
-    out.verdict = PoseVerdict::kLowInlierRatio;
-    return out;
-  }
+  // Fail(v): the first failing gate sets the verdict; the checks stop there unless
+  // options.measure_all_gates asks for every gate's value (diagnostics; the verdict is the same).
+  bool failed = false;
+  auto fail = [&](PoseVerdict verdict) {
+    if (!failed) out.verdict = verdict;
+    failed = true;
+    return !options.measure_all_gates;
+  };
+  if (q.inliers < ransac.min_inliers && fail(PoseVerdict::kTooFewInliers)) return out;
+  if (q.inliers < q.required_inliers && fail(PoseVerdict::kLowInlierRatio)) return out;
+  if (inlier_errors.empty()) return out;  // measure_all_gates with no inlier: nothing to measure
   q.median_error_px = Quantile(inlier_errors, 0.5);
   q.p90_error_px = Quantile(inlier_errors, 0.9);
-  if (q.median_error_px > options.max_median_error_ratio * ransac.threshold_px ||
-      q.p90_error_px > options.max_p90_error_ratio * ransac.threshold_px) {
-    out.verdict = PoseVerdict::kHighReprojectionError;
+  if ((q.median_error_px > options.max_median_error_ratio * ransac.threshold_px ||
+       q.p90_error_px > options.max_p90_error_ratio * ransac.threshold_px) &&
+      fail(PoseVerdict::kHighReprojectionError)) {
     return out;
   }
   std::vector<Eigen::Vector2d> points;
   for (int i : out.inliers) points.push_back(keypoints[static_cast<std::size_t>(i)]);
   ImageSpread(camera, points, options.grid_cols, options.grid_rows, &q.cell_fraction,
               &q.hull_fraction);
-  if (q.cell_fraction < options.min_cell_fraction || q.hull_fraction < options.min_hull_fraction) {
-    out.verdict = PoseVerdict::kClusteredInliers;
+  if ((q.cell_fraction < options.min_cell_fraction || q.hull_fraction < options.min_hull_fraction) &&
+      fail(PoseVerdict::kClusteredInliers)) {
     return out;
   }
   if (have_covariance) {
     q.position_sigma_m = LargestSigma(out.covariance_C.topLeftCorner<3, 3>());
     q.rotation_sigma_deg = LargestSigma(out.covariance_C.bottomRightCorner<3, 3>()) * 180.0 / M_PI;
   }
-  if (!have_covariance || q.position_sigma_m > options.max_position_sigma_m ||
-      q.rotation_sigma_deg > options.max_rotation_sigma_deg) {
-    out.verdict = PoseVerdict::kUncertainPose;
+  if ((!have_covariance || q.position_sigma_m > options.max_position_sigma_m ||
+       q.rotation_sigma_deg > options.max_rotation_sigma_deg) &&
+      fail(PoseVerdict::kUncertainPose)) {
     return out;
   }
   if (options.rival_check) {
@@ -399,8 +408,14 @@ AcceptedPose AcceptPoseOnce(const Camera& camera, const std::vector<Eigen::Vecto
       }
     }
     q.rival_ratio = static_cast<double>(q.rival_inliers) / q.inliers;
-    if (q.rival_ratio > options.max_rival_ratio) {
-      out.verdict = PoseVerdict::kAmbiguousPose;
+    // Sign test (pose_acceptance.h): the winner's margin in standard deviations of n_w - n_r
+    // under "both equally right".
+    q.rival_margin_sigma = (q.inliers - q.rival_inliers) /
+                           std::sqrt(static_cast<double>(std::max(1, q.inliers + q.rival_inliers)));
+    const bool outweighed = q.rival_ratio <= options.max_outweighed_rival_ratio &&
+                            q.rival_margin_sigma >= options.min_rival_margin_sigma;
+    if (q.rival_ratio > options.max_rival_ratio && !outweighed &&
+        fail(PoseVerdict::kAmbiguousPose)) {
       return out;
     }
   }
@@ -418,7 +433,7 @@ AcceptedPose AcceptPoseOnce(const Camera& camera, const std::vector<Eigen::Vecto
     q.displaced_rival_ratio = static_cast<double>(q.displaced_rival_inliers) / q.inliers;
     q.displaced_rival_position_m = rival.position_m;
     q.displaced_rival_rotation_deg = rival.rotation_deg;
-    if (may_adopt && rival.found && q.displaced_rival_inliers > q.inliers) {
+    if (!failed && may_adopt && rival.found && q.displaced_rival_inliers > q.inliers) {
       // RANSAC's own criterion (most inliers) prefers the rival: the P3P samples missed it
       // (it needs a match the winner rejects, e.g. at another depth). It replaces the winner
       // and goes through every gate itself, the displaced-rival search included (the old
@@ -435,12 +450,12 @@ AcceptedPose AcceptPoseOnce(const Camera& camera, const std::vector<Eigen::Vecto
     // A tie (ratio 1 at the default) is ambiguous too: the data explain the displaced pose as
     // well as the winner, so they do not pick the winner (docs/localizer.md, "The simulated
     // sessions re-rendered": room-s4 frame 570, 2.05 deg off with a rival of equal support).
-    if (q.displaced_rival_ratio >= options.max_displaced_rival_ratio) {
-      out.verdict = PoseVerdict::kAmbiguousPose;
+    if (q.displaced_rival_ratio >= options.max_displaced_rival_ratio &&
+        fail(PoseVerdict::kAmbiguousPose)) {
       return out;
     }
   }
-  out.verdict = PoseVerdict::kAccepted;
+  if (!failed) out.verdict = PoseVerdict::kAccepted;
   return out;
 }
 

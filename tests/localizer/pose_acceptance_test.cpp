@@ -189,6 +189,34 @@ TEST_CASE("pose acceptance: each gate rejects its constructed case", "[localizat
     CHECK(a.quality.rival_ratio <= 0.3);
     CHECK(PositionError(a) < 0.05);
   }
+  SECTION("a third repeated: a significant margin outweighs the rival, a small one does not") {
+    // Every third landmark copied 1 m aside: the rival has a third of the winner's support
+    // (above max_rival_ratio 0.3). With 240 inliers the margin (240 - 80) / sqrt(320) = 8.9
+    // sigma is no chance; with 30 it is (30 - 10) / sqrt(40) = 3.2 sigma.
+    auto third_repeated = [&](int n) {
+      PoseScene s;
+      AddPoseInliers(cam, n, 0, 0, 1, 1, 3, 8, 0.3, &rng, &s);
+      for (int i = 0; i < n; i += 3) {
+        s.uv.push_back(s.uv[static_cast<std::size_t>(i)]);
+        s.p_G.push_back(s.p_G[static_cast<std::size_t>(i)] + Eigen::Vector3d(1.0, 0.0, 0.0));
+      }
+      return s;
+    };
+    const PoseScene many = third_repeated(240);
+    const AcceptedPose a = Run(cam, many);
+    INFO("rival " << a.quality.rival_ratio << " margin " << a.quality.rival_margin_sigma);
+    CHECK(a.verdict == PoseVerdict::kAccepted);
+    CHECK(a.quality.rival_ratio > PoseAcceptanceOptions().max_rival_ratio);
+    CHECK(a.quality.rival_margin_sigma > 8.0);
+    CHECK(PositionError(a) < 0.05);
+    PoseAcceptanceOptions ratio_only;  // the rule before the margin
+    ratio_only.max_outweighed_rival_ratio = 0.0;
+    CHECK(Run(cam, many, ratio_only).verdict == PoseVerdict::kAmbiguousPose);
+    const AcceptedPose few = Run(cam, third_repeated(30));
+    INFO("few: rival " << few.quality.rival_ratio << " margin " << few.quality.rival_margin_sigma);
+    CHECK(few.verdict == PoseVerdict::kAmbiguousPose);
+    CHECK(few.quality.rival_margin_sigma < 5.0);
+  }
   SECTION("few inliers among many matches: the inlier ratio") {
     // RANSAC rarely finds a 4 % model, but a wrong one found by chance looks like this: the
     // gate judges the model, however it was found.
@@ -238,6 +266,30 @@ TEST_CASE("pose acceptance: each gate rejects its constructed case", "[localizat
   }
 }
 
+TEST_CASE("pose acceptance: measure_all_gates measures every gate, the verdict unchanged",
+          "[localization]") {
+  const Camera cam = EurocCamera();
+  std::mt19937_64 rng(5);
+  PoseScene s;  // inliers in one image corner: the spread gate fails first
+  AddPoseInliers(cam, 40, 0.02, 0.02, 0.12, 0.12, 2, 8, 0.3, &rng, &s);
+  AddOutliers(cam, 20, &rng, &s);
+  const AcceptedPose first = Run(cam, s);
+  REQUIRE(first.verdict == PoseVerdict::kClusteredInliers);
+  CHECK(first.quality.position_sigma_m < 0.0);  // not measured after the failing gate
+  CHECK(first.quality.rival_ratio < 0.0);
+  PoseAcceptanceOptions all;
+  all.measure_all_gates = true;
+  const AcceptedPose measured = Run(cam, s, all);
+  CHECK(measured.verdict == PoseVerdict::kClusteredInliers);
+  CHECK(measured.quality.cell_fraction == first.quality.cell_fraction);
+  CHECK(measured.quality.position_sigma_m > 0.0);
+  CHECK(measured.quality.rotation_sigma_deg > 0.0);
+  CHECK(measured.quality.rival_ratio >= 0.0);
+  CHECK(measured.quality.rival_margin_sigma > 0.0);
+  CHECK(measured.quality.displaced_rival_ratio >= 0.0);
+  CHECK(measured.T_G_C.translation() == first.T_G_C.translation());
+}
+
 TEST_CASE("pose acceptance: options validate each field", "[localization]") {
   CHECK(PoseAcceptanceOptions().Validate().empty());
   auto bad = [](auto set) {
@@ -256,6 +308,10 @@ TEST_CASE("pose acceptance: options validate each field", "[localization]") {
              Catch::Contains("min_cell_fraction"));
   CHECK_THAT(bad([](auto& o) { o.min_hull_fraction = 1.1; }),
              Catch::Contains("min_hull_fraction"));
+  CHECK_THAT(bad([](auto& o) { o.max_outweighed_rival_ratio = 1.5; }),
+             Catch::Contains("max_outweighed_rival_ratio"));
+  CHECK_THAT(bad([](auto& o) { o.min_rival_margin_sigma = 0.0; }),
+             Catch::Contains("min_rival_margin_sigma"));
   CHECK_THAT(bad([](auto& o) { o.max_position_sigma_m = 0.0; }),
              Catch::Contains("max_position_sigma_m"));
   CHECK_THAT(bad([](auto& o) { o.max_rotation_sigma_deg = -1.0; }),

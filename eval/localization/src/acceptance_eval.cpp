@@ -166,6 +166,11 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
   q.oracle_matches = static_cast<int>(agreeing.size());
   q.possible = q.oracle_matches >= gates.oracle_min_matches;
   q.accepted = r.status == LocalizationStatus::kOk;
+  if (r.status == LocalizationStatus::kOk || r.status >= LocalizationStatus::kTooFewInliers) {
+    q.judged_position_error_m = (r.T_G_I.translation() - T_G_I_gt.translation()).norm();
+    q.judged_rotation_error_deg =
+        AngleBetween(r.T_G_I.rotation(), T_G_I_gt.rotation()) * 180.0 / M_PI;
+  }
   if (q.accepted) {
     q.position_error_m = (r.T_G_I.translation() - T_G_I_gt.translation()).norm();
     q.rotation_error_deg = AngleBetween(r.T_G_I.rotation(), T_G_I_gt.rotation()) * 180.0 / M_PI;
@@ -306,7 +311,7 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
   s << "frame  status                    kpts  match  inl  oracle  possible  pos[m]  rot[deg]"
        "  sigma_p[m]  sigma_R[deg]  verdict   ratio  med/p90[px]  cells  hull  sp[m] sR[deg] "
        "rival  rival_d[m/deg]  chi2/dof  split_img[m/deg/d2]  split_depth[m/deg/d2]  "
-       "displaced[ratio m/deg]\n";
+       "displaced[ratio m/deg]  judged_err[m/deg]  rival_margin[sigma]\n";
   for (const AcceptanceQuery& q : queries) {
     s << std::setw(5) << q.frame << "  " << std::left << std::setw(24)
       << LocalizationStatusName(q.status) << std::right << std::setw(6) << q.keypoints
@@ -333,7 +338,10 @@ void WriteAcceptanceQueries(std::ostream& out, const std::vector<AcceptanceQuery
       << g.split_depth_position_m << "/" << std::setprecision(2) << g.split_depth_rotation_deg
       << "/" << std::setprecision(1) << g.split_depth_mahalanobis2 << std::setprecision(2)
       << std::setw(7) << g.displaced_rival_ratio << " " << g.displaced_rival_position_m << "/"
-      << g.displaced_rival_rotation_deg << (g.adopted_displaced_rival ? " adopted" : "");
+      << g.displaced_rival_rotation_deg << (g.adopted_displaced_rival ? " adopted" : "")
+      << std::setprecision(3) << "  " << q.judged_position_error_m << "/" << std::setprecision(2)
+      << q.judged_rotation_error_deg << std::setprecision(1) << std::setw(6)
+      << g.rival_margin_sigma;
     s << "\n";
   }
   out << s.str();

@@ -69,6 +69,17 @@ struct PoseAcceptanceOptions {
   bool rival_check = true;
   double rival_exclusion_factor = 2.0;
   double max_rival_ratio = 0.3;
+  // ... unless the winner outweighs the rival significantly: rival ratio at most
+  // max_outweighed_rival_ratio AND (n_w - n_r) / sqrt(n_w + n_r) >= min_rival_margin_sigma
+  // (n_w, n_r the winner's and the rival's inliers). Under "both poses are equally right" each
+  // of the n_w + n_r matches that support one of them goes to either with probability 1/2, so
+  // n_w - n_r has standard deviation sqrt(n_w + n_r) (a sign test): 5 sigma is a margin chance
+  // does not make. A third of a scene repeated elsewhere (kitti repeated-third: 200-330
+  // inliers against a rival of 31-38 %, 8-11 sigma) is then accepted, while small inlier sets
+  // keep the ratio rule (at 0.4, a margin of 5 sigma needs ~100 winner inliers; at 0.5, 150).
+  // Off: max_outweighed_rival_ratio <= max_rival_ratio (docs/localizer.md, "Rival margin").
+  double max_outweighed_rival_ratio = 0.5;
+  double min_rival_margin_sigma = 5.0;
   // At most this many rival samples; fewer when a rival at the gate (max_rival_ratio x the
   // winner's inliers) would be found with ransac.probability sooner.
   int rival_max_iterations = 1000;
@@ -93,6 +104,11 @@ struct PoseAcceptanceOptions {
   double max_displaced_rival_ratio = 1.0;
   int displaced_rival_samples = 300;
   bool adopt_displaced_rival = true;
+  // Diagnostics: measure every gate's value (PoseQuality) even after one has failed; the
+  // verdict is unchanged (the first failing gate's), the cost is that of a passing query.
+  // A pose that fails a gate never adopts a displaced rival. Used by vilma-loc-acceptance
+  // --measure-all to study which gates catch which poses.
+  bool measure_all_gates = false;
   std::string Validate() const;
 };
 
@@ -132,6 +148,7 @@ struct PoseQuality {
   double split_depth_mahalanobis2 = -1.0;
   int rival_inliers = -1;           // of a rival that differs from the winner (else 0)
   double rival_ratio = -1.0;
+  double rival_margin_sigma = -1.0;  // (winner - rival inliers) / sqrt(their sum)
   double rival_position_m = -1.0;   // how far the best rival model is from the winner
   double rival_rotation_deg = -1.0;
   // Displaced rival (when displaced_rival_check ran): its inliers, their ratio to the winner's

@@ -85,6 +85,10 @@ struct AcceptanceQuery {
   bool wrong = false;      // accepted and beyond a gate
   double position_error_m = -1.0;    // -1 if not accepted
   double rotation_error_deg = -1.0;
+  // The error of the pose the gates judged, accepted or not (-1 when no pose reached the
+  // gates: no keypoints, too few matches, RANSAC failed): which gate caught which pose.
+  double judged_position_error_m = -1.0;
+  double judged_rotation_error_deg = -1.0;
   double position_sigma_m = 0.0;     // sqrt of the largest eigenvalue of the position covariance
   double rotation_sigma_deg = 0.0;   // likewise of the rotation covariance (IMU frame)
   PoseQuality quality;               // what the acceptance gates measured
