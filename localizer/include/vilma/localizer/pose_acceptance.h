@@ -106,8 +106,9 @@ struct PoseAcceptanceOptions {
   bool adopt_displaced_rival = true;
   // Diagnostics: measure every gate's value (PoseQuality) even after one has failed; the
   // verdict is unchanged (the first failing gate's), the cost is that of a passing query.
-  // A pose that fails a gate never adopts a displaced rival. Used by vilma-loc-acceptance
-  // --measure-all to study which gates catch which poses.
+  // A pose that fails a gate never adopts a displaced rival. Used through
+  // `vilma-loc-acceptance --queries --config F` (F with this true) to study which gates catch
+  // which poses (docs/localizer.md, "Rival margin and which gate catches which pose").
   bool measure_all_gates = false;
   std::string Validate() const;
 };
