@@ -166,14 +166,16 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
   q.oracle_matches = static_cast<int>(agreeing.size());
   q.possible = q.oracle_matches >= gates.oracle_min_matches;
   q.accepted = r.status == LocalizationStatus::kOk;
+  // A pose reached the gates: accepted, or rejected by one of them (the statuses from
+  // kTooFewInliers on, localizer.h).
   if (r.status == LocalizationStatus::kOk || r.status >= LocalizationStatus::kTooFewInliers) {
     q.judged_position_error_m = (r.T_G_I.translation() - T_G_I_gt.translation()).norm();
     q.judged_rotation_error_deg =
         AngleBetween(r.T_G_I.rotation(), T_G_I_gt.rotation()) * 180.0 / M_PI;
   }
   if (q.accepted) {
-    q.position_error_m = (r.T_G_I.translation() - T_G_I_gt.translation()).norm();
-    q.rotation_error_deg = AngleBetween(r.T_G_I.rotation(), T_G_I_gt.rotation()) * 180.0 / M_PI;
+    q.position_error_m = q.judged_position_error_m;
+    q.rotation_error_deg = q.judged_rotation_error_deg;
     q.wrong = !(q.position_error_m <= gates.max_position_error_m &&
                 q.rotation_error_deg <= gates.max_rotation_error_deg);
     q.position_sigma_m = LargestSigma(r.covariance_I.topLeftCorner<3, 3>());
