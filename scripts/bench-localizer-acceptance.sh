@@ -8,6 +8,10 @@
 #     stereo keyframes (../shared/data/euroc_V1_01_keyframes): a map of the even keyframes
 #     (or of the first 50) from `vilma map-from-poses` (ground-truth poses, G = W) and
 #     `vilma locmap build`, queried with the odd keyframes (or the last 50), which it never saw;
+#   - euroc moving / micro: the other real V1_01 slices (../shared/data/euroc_V1_01_moving: 90
+#     consecutive frames in motion; euroc_V1_01_micro: the static start, every 5th frame) against
+#     a map of the keyframes more than 1 s away from both slices' time spans (95 of 100), so no
+#     query image is in the map;
 #   - sim room-s2..s5 (+ swapped-80): the simulated sessions of scripts/make-datasets.sh, every
 #     10th frame, against a ground-truth map of room-easy (vilma-locmap-gt).
 # Columns: queries; possible (a correct answer is in the matches: >= 12 reproject within 4 px
@@ -61,10 +65,16 @@ stale() {
 }
 
 # subset_dataset SRC DST FILTER: an ASL folder DST whose cam0/cam1 data.csv keep the rows
-# (after the header) for which the awk condition FILTER on the row number n (0-based) holds;
+# (after the header) that FILTER selects: "even" (row number n, 0-based, even), "first50"
+# (n < 50) or "away" (stamp more than 1 s outside the spans of the moving and micro slices);
 # images, IMU, ground truth and calibration are links into SRC.
 subset_dataset() {
-  local src=$1 dst=$2 filter=$3 cam
+  local src=$1 dst=$2 filter=$3 cam spans="-v moving_first=0 -v moving_last=0 -v micro_first=0 -v micro_last=0"
+  if [ "$filter" = away ]; then
+    # explicit exits: euroc_map runs in a command substitution, where bash clears set -e
+    spans=$(span_of moving euroc_V1_01_moving) || exit 1
+    spans="$spans $(span_of micro euroc_V1_01_micro)" || exit 1
+  fi
   rm -rf "$dst"
   mkdir -p "$dst/mav0"
   for d in imu0 state_groundtruth_estimate0; do ln -s "$src/mav0/$d" "$dst/mav0/$d"; done
@@ -73,9 +83,23 @@ subset_dataset() {
     mkdir -p "$dst/mav0/$cam"
     ln -s "$src/mav0/$cam/data" "$dst/mav0/$cam/data"
     [ -e "$src/mav0/$cam/sensor.yaml" ] && ln -s "$src/mav0/$cam/sensor.yaml" "$dst/mav0/$cam/sensor.yaml"
-    awk -v F="$filter" 'NR == 1 { print; next } { n = NR - 2; if ((F == "even" && n % 2 == 0) || (F == "first50" && n < 50)) print }' \
+    # shellcheck disable=SC2086  # $spans is a list of awk -v assignments
+    awk -F, -v F="$filter" $spans '
+      NR == 1 { print; next }
+      { n = NR - 2; t = $1 + 0
+        away = (t < moving_first - 1e9 || t > moving_last + 1e9) && (t < micro_first - 1e9 || t > micro_last + 1e9)
+        if ((F == "even" && n % 2 == 0) || (F == "first50" && n < 50) || (F == "away" && away)) print }' \
       "$src/mav0/$cam/data.csv" > "$dst/mav0/$cam/data.csv"
   done
+}
+
+# span_of NAME SLICE: awk assignments NAME_first / NAME_last = the first and last cam0 stamps
+# [ns] of a real slice (as doubles: 1 s windows need no more than 256 ns).
+span_of() {
+  local csv=$shared/$2/mav0/cam0/data.csv
+  [ -f "$csv" ] || { echo "bench-localizer-acceptance: $csv missing" >&2; exit 1; }
+  awk -F, -v N="$1" 'NR > 1 && $1 ~ /^[0-9]+$/ { if (first == "") first = $1; last = $1 }
+    END { printf "-v %s_first=%s -v %s_last=%s", N, first, N, last }' "$csv"
 }
 
 # euroc_map NAME FILTER: the .vlocmap of the keyframes FILTER selects (ground-truth poses).
@@ -83,7 +107,7 @@ euroc_map() {
   local name=$1 filter=$2 kf=$shared/euroc_V1_01_keyframes
   local map=$work/euroc-$name.vlocmap
   if stale "$map" "$bin/vilma" "$kf/mav0/cam0/data.csv"; then
-    subset_dataset "$kf" "$work/euroc-$name-data" "$filter"
+    subset_dataset "$kf" "$work/euroc-$name-data" "$filter" || exit 1
     rm -rf "$work/euroc-$name-vimap"
     "$bin/vilma" map-from-poses "$work/euroc-$name-data" --out "$work/euroc-$name-vimap" \
       > "$work/euroc-$name-vimap.out" 2>&1 || { cat "$work/euroc-$name-vimap.out" >&2; exit 1; }
@@ -111,6 +135,9 @@ for set in $sets; do
       "$acc" asl "$kf" "$even" --first 1 --every 2 --swap 0.8 --name "euroc even-odd swapped-80" "${config[@]}"
       "$acc" asl "$kf" "$even" --first 1 --every 2 --box 0,0,0.4,0.5 --name "euroc even-odd corner" "${config[@]}"
       "$acc" asl "$kf" "$even" --first 1 --every 2 --max-keypoints 60 --name "euroc even-odd few-keypoints" "${config[@]}"
+      away=$(euroc_map away away)
+      "$acc" asl "$shared/euroc_V1_01_moving" "$away" --name "euroc moving" "${config[@]}"
+      "$acc" asl "$shared/euroc_V1_01_micro" "$away" --every 5 --name "euroc micro" "${config[@]}"
       ;;
     sim)
       VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" \
