@@ -151,6 +151,26 @@ const char* LocalizationStatusName(LocalizationStatus status) {
   return "unknown";
 }
 
+bool HasRefinedPose(LocalizationStatus status) {
+  switch (status) {
+    case LocalizationStatus::kOk:
+    case LocalizationStatus::kTooFewInliers:
+    case LocalizationStatus::kLowInlierRatio:
+    case LocalizationStatus::kHighReprojectionError:
+    case LocalizationStatus::kClusteredInliers:
+    case LocalizationStatus::kUncertainPose:
+    case LocalizationStatus::kAmbiguousPose:
+      return true;
+    case LocalizationStatus::kNoKeypoints:
+    case LocalizationStatus::kNoDescriptorMatches:
+    case LocalizationStatus::kTooFewMatches:
+    case LocalizationStatus::kRansacFailed:
+    case LocalizationStatus::kNumStatuses:
+      return false;
+  }
+  return false;
+}
+
 std::string LocalizerStats::FullReport() const {
   std::ostringstream ss;
   ss << "queries " << queries << "\n";

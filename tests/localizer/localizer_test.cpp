@@ -153,6 +153,20 @@ TEST_CASE("localizer options: unknown keys and bad values name file and key", "[
   }
   CHECK(names.size() == static_cast<std::size_t>(LocalizationStatus::kNumStatuses));
   CHECK(names.count("unknown") == 0);
+  // A refined pose exists exactly for ok, too few inliers after refinement and the gates.
+  const std::set<std::string> with_pose = {"ok",
+                                           "too_few_inliers",
+                                           "low_inlier_ratio",
+                                           "high_reprojection_error",
+                                           "clustered_inliers",
+                                           "uncertain_pose",
+                                           "ambiguous_pose"};
+  for (int k = 0; k < static_cast<int>(LocalizationStatus::kNumStatuses); ++k) {
+    const auto status = static_cast<LocalizationStatus>(k);
+    INFO(LocalizationStatusName(status));
+    CHECK(HasRefinedPose(status) == (with_pose.count(LocalizationStatusName(status)) == 1));
+  }
+  CHECK_FALSE(HasRefinedPose(LocalizationStatus::kNumStatuses));
 }
 
 TEST_CASE("covisibility: the largest component through shared observers is kept",

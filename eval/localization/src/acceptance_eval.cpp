@@ -166,9 +166,8 @@ AcceptanceQuery EvaluateAcceptanceQuery(const Localizer& localizer, const Camera
   q.oracle_matches = static_cast<int>(agreeing.size());
   q.possible = q.oracle_matches >= gates.oracle_min_matches;
   q.accepted = r.status == LocalizationStatus::kOk;
-  // A pose reached the gates: accepted, or rejected by one of them (the statuses from
-  // kTooFewInliers on, localizer.h).
-  if (r.status == LocalizationStatus::kOk || r.status >= LocalizationStatus::kTooFewInliers) {
+  // A pose reached the gates: accepted, or rejected after refinement by one of them.
+  if (HasRefinedPose(r.status)) {
     q.judged_position_error_m = (r.T_G_I.translation() - T_G_I_gt.translation()).norm();
     q.judged_rotation_error_deg =
         AngleBetween(r.T_G_I.rotation(), T_G_I_gt.rotation()) * 180.0 / M_PI;

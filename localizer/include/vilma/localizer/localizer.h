@@ -66,6 +66,11 @@ enum class LocalizationStatus : uint8_t {
   kNumStatuses
 };
 const char* LocalizationStatusName(LocalizationStatus status);
+// True when the result's pose is a refined RANSAC winner: accepted (kOk), or judged and
+// rejected after refinement (kTooFewInliers and every acceptance gate's status). False when no
+// pose was estimated (no keypoints, matches or RANSAC model). Evaluations measure the error of
+// such poses; kept as a switch so that a reordered or new status cannot change it silently.
+bool HasRefinedPose(LocalizationStatus status);
 
 struct Match2D3D {
   int keypoint = 0;
