@@ -47,7 +47,7 @@ void PrintHelp(std::ostream& out) {
          "       vilma-loc-acceptance asl DATASET MAP.vlocmap [--name NAME] [--every N]\n"
          "                            [--first N] [--camera C] [--rig RIG.yaml]\n"
          "                            [--swap F] [--max-keypoints N] [--box X0,Y0,X1,Y1]\n"
-         "                            [common options]\n"
+         "                            [--features FEATURES.yaml] [common options]\n"
          "\n"
          "Acceptance benchmark of the localizer: every query has ground truth; an accepted\n"
          "pose (status ok) beyond 0.3 m or 2 deg is WRONG; a query is 'possible' when at\n"
@@ -71,6 +71,8 @@ void PrintHelp(std::ostream& out) {
          "  query features of vilma-estimatord. Query perturbations: --swap F (this share of\n"
          "  the descriptors swapped between keypoints), --max-keypoints N (the N best),\n"
          "  --box X0,Y0,X1,Y1 (keypoints inside this box, fractions of width and height).\n"
+         "  --features FILE: other query features (strict, like config/keyframe_features.yaml;\n"
+         "  default: vilma-estimatord's query profile, config/localization_features.yaml).\n"
          "\n"
          "landmarks: the map's landmark covariances against the simulator's true surfaces\n"
          "  (SIM_DATASET's sim.yaml; map in the world frame, e.g. vilma-locmap-gt's): the\n"
@@ -97,7 +99,7 @@ void PrintHelp(std::ostream& out) {
 }
 
 struct Args {
-  std::string mode, input, map, name, config, rig;
+  std::string mode, input, map, name, config, rig, features;
   std::vector<std::string> scenarios;
   int every = 1, first = 0, camera = 0;
   QueryPerturbation perturbation;
@@ -120,6 +122,8 @@ Args Parse(const std::vector<std::string>& argv) {
       a.config = arg.Value();
     } else if (n == "--rig") {
       a.rig = arg.Value();
+    } else if (n == "--features") {
+      a.features = arg.Value();
     } else if (n == "--name") {
       a.name = arg.Value();
     } else if (n == "--every") {
@@ -178,9 +182,11 @@ Args Parse(const std::vector<std::string>& argv) {
   if (!error.empty()) throw UsageError("query perturbation: " + error);
   if (a.mode == "kitti") {
     if (positional.size() != 2) throw UsageError("kitti: expected one KITTI_DIR");
-    if (!a.perturbation.IsIdentity() || a.every != 1 || a.first != 0 || !a.rig.empty()) {
-      throw UsageError("kitti: --swap/--max-keypoints/--box/--every/--first/--rig are for asl "
-                       "(the scenarios define their own)");
+    if (!a.perturbation.IsIdentity() || a.every != 1 || a.first != 0 || !a.rig.empty() ||
+        !a.features.empty()) {
+      throw UsageError(
+          "kitti: --swap/--max-keypoints/--box/--every/--first/--rig/--features are for asl "
+          "(the scenarios define their own)");
     }
     a.input = positional[1];
   } else if (a.mode == "asl") {
@@ -254,6 +260,10 @@ void RunKitti(const Args& a, const LocalizerOptions& options, std::ostream& out)
 }
 
 void RunAsl(const Args& a, const LocalizerOptions& options, std::ostream& out) {
+  // The query features first: a bad --features file fails before any data is read.
+  const KeyframeFeatureOptions features = a.features.empty()
+                                              ? LocalizationQueryFeatureOptions()
+                                              : LoadKeyframeFeatureOptions(a.features);
   std::error_code ec;
   if (!fs::is_directory(a.input, ec)) {
     throw InputError(FormatInputError(a.input, "DATASET", "an ASL dataset folder"));
@@ -283,7 +293,7 @@ void RunAsl(const Args& a, const LocalizerOptions& options, std::ostream& out) {
   const Transformation& T_I_C = rig.cameras[cam].T_I_C;
   const auto map = std::make_shared<const LocalizationMap>(LoadLocalizationMap(a.map));
   const Localizer localizer(map, options);
-  const FeatureExtractor extractor(LocalizationQueryFeatureOptions());
+  const FeatureExtractor extractor(features);
   const auto& frames = dataset.cameras()[cam].frames;
   std::vector<AcceptanceQuery> queries;
   for (std::size_t i = static_cast<std::size_t>(a.first); i < frames.size();

@@ -42,6 +42,12 @@ TEST_CASE("vilma-loc-acceptance: usage and input errors", "[localization]") {
   CHECK_THAT(out, Catch::Contains("box"));
   CHECK(Run(kTool + " asl a b --swap x", &out) == 2);
   CHECK(Run(kTool + " kitti a --swap 0.5", &out) == 2);  // the scenarios define their own
+  CHECK(Run(kTool + " kitti a --features f.yaml", &out) == 2);
+  CHECK_THAT(out, Catch::Contains("--features are for asl"));
+  // A bad --features file is named before the dataset is read.
+  CHECK(Run(kTool + " asl /nonexistent-dataset x.vlocmap --features /nonexistent-features.yaml",
+            &out) == 1);
+  CHECK_THAT(out, Catch::Contains("/nonexistent-features.yaml"));
   CHECK(Run(kTool + " kitti a --kitti-map exact", &out) == 2);
   CHECK_THAT(out, Catch::Contains("integer, subpixel or tracks"));
   CHECK(Run(kTool + " asl a b --kitti-map integer", &out) == 2);  // KITTI maps only
