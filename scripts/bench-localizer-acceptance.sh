@@ -69,7 +69,7 @@ stale() {
 # (n < 50) or "away" (stamp more than 1 s outside the spans of the moving and micro slices);
 # images, IMU, ground truth and calibration are links into SRC.
 subset_dataset() {
-  local src=$1 dst=$2 filter=$3 cam spans="-v moving_first=0 -v moving_last=0 -v micro_first=0 -v micro_last=0"
+  local src=$1 dst=$2 filter=$3 cam spans=""
   if [ "$filter" = away ]; then
     # explicit exits: euroc_map runs in a command substitution, where bash clears set -e
     spans=$(span_of moving euroc_V1_01_moving) || exit 1
@@ -86,9 +86,10 @@ subset_dataset() {
     # shellcheck disable=SC2086  # $spans is a list of awk -v assignments
     awk -F, -v F="$filter" $spans '
       NR == 1 { print; next }
-      { n = NR - 2; t = $1 + 0
-        away = (t < moving_first - 1e9 || t > moving_last + 1e9) && (t < micro_first - 1e9 || t > micro_last + 1e9)
-        if ((F == "even" && n % 2 == 0) || (F == "first50" && n < 50) || (F == "away" && away)) print }' \
+      F == "even" && (NR - 2) % 2 == 0 { print }
+      F == "first50" && NR - 2 < 50 { print }
+      F == "away" && ($1 + 0 < moving_first - 1e9 || $1 + 0 > moving_last + 1e9) &&
+                     ($1 + 0 < micro_first - 1e9 || $1 + 0 > micro_last + 1e9) { print }' \
       "$src/mav0/$cam/data.csv" > "$dst/mav0/$cam/data.csv"
   done
 }
