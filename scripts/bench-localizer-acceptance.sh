@@ -18,7 +18,10 @@
 # under the ground truth); accepted (status ok); accepted wrong (> 0.3 m or > 2 deg); recall =
 # accepted correct / possible; median error of the accepted; rejection reasons.
 #
-# Usage: scripts/bench-localizer-acceptance.sh [--config LOCALIZER.yaml] [--queries]
+# Usage: scripts/bench-localizer-acceptance.sh [--config LOCALIZER.yaml] [--features F.yaml]
+#                                             [--queries]
+#   --features F.yaml      other query features for the EuRoC and sim rows (like
+#                          config/localization_features.yaml; KITTI has its own profile)
 #   --queries              also print every query's line (status, errors, every gate's value)
 #                          before its data set's row
 #   VILMA_BUILD_DIR        build folder (bin/vilma-loc-acceptance, bin/vilma, bin/vilma-locmap-gt)
@@ -39,10 +42,13 @@ work=${BENCH_WORK:-$cache/loc-acceptance}
 sets=${BENCH_SETS:-kitti euroc sim}
 bin=$build_dir/bin
 config=()
+features=()
 while [ $# -gt 0 ]; do
   case "$1" in
     --config) [ $# -ge 2 ] || { echo "bench-localizer-acceptance: --config: expected a file" >&2; exit 2; }
               config+=(--config "$2"); shift 2 ;;
+    --features) [ $# -ge 2 ] || { echo "bench-localizer-acceptance: --features: expected a file" >&2; exit 2; }
+                features+=(--features "$2"); shift 2 ;;
     --queries) config+=(--queries); shift ;;
     -h | --help) sed -n '2,/^set -euo/p' "$0" | grep '^#' | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "bench-localizer-acceptance: unknown argument '$1'" >&2; exit 2 ;;
@@ -131,14 +137,14 @@ for set in $sets; do
       [ -d "$kf" ] || { echo "bench-localizer-acceptance: $kf missing" >&2; exit 1; }
       even=$(euroc_map even even)
       first=$(euroc_map first50 first50)
-      "$acc" asl "$kf" "$even" --first 1 --every 2 --name "euroc even-odd" "${config[@]}"
-      "$acc" asl "$kf" "$first" --first 50 --name "euroc halves" "${config[@]}"
-      "$acc" asl "$kf" "$even" --first 1 --every 2 --swap 0.8 --name "euroc even-odd swapped-80" "${config[@]}"
-      "$acc" asl "$kf" "$even" --first 1 --every 2 --box 0,0,0.4,0.5 --name "euroc even-odd corner" "${config[@]}"
-      "$acc" asl "$kf" "$even" --first 1 --every 2 --max-keypoints 60 --name "euroc even-odd few-keypoints" "${config[@]}"
+      "$acc" asl "$kf" "$even" --first 1 --every 2 --name "euroc even-odd" "${config[@]}" "${features[@]}"
+      "$acc" asl "$kf" "$first" --first 50 --name "euroc halves" "${config[@]}" "${features[@]}"
+      "$acc" asl "$kf" "$even" --first 1 --every 2 --swap 0.8 --name "euroc even-odd swapped-80" "${config[@]}" "${features[@]}"
+      "$acc" asl "$kf" "$even" --first 1 --every 2 --box 0,0,0.4,0.5 --name "euroc even-odd corner" "${config[@]}" "${features[@]}"
+      "$acc" asl "$kf" "$even" --first 1 --every 2 --max-keypoints 60 --name "euroc even-odd few-keypoints" "${config[@]}" "${features[@]}"
       away=$(euroc_map away away)
-      "$acc" asl "$shared/euroc_V1_01_moving" "$away" --name "euroc moving" "${config[@]}"
-      "$acc" asl "$shared/euroc_V1_01_micro" "$away" --every 5 --name "euroc micro" "${config[@]}"
+      "$acc" asl "$shared/euroc_V1_01_moving" "$away" --name "euroc moving" "${config[@]}" "${features[@]}"
+      "$acc" asl "$shared/euroc_V1_01_micro" "$away" --every 5 --name "euroc micro" "${config[@]}" "${features[@]}"
       ;;
     sim)
       VILMA_SIM=$bin/vilma-sim bash "$repo_dir/scripts/make-datasets.sh" --out "$datasets" \
@@ -149,9 +155,9 @@ for set in $sets; do
           { cat "$work/room-easy-gt.out" >&2; exit 1; }
       fi
       for q in room-s2 room-s3 room-s4 room-s5; do
-        "$acc" asl "$datasets/$q" "$map" --every 10 --name "sim $q" "${config[@]}"
+        "$acc" asl "$datasets/$q" "$map" --every 10 --name "sim $q" "${config[@]}" "${features[@]}"
       done
-      "$acc" asl "$datasets/room-s2" "$map" --every 10 --swap 0.8 --name "sim room-s2 swapped-80" "${config[@]}"
+      "$acc" asl "$datasets/room-s2" "$map" --every 10 --swap 0.8 --name "sim room-s2 swapped-80" "${config[@]}" "${features[@]}"
       ;;
     *) echo "bench-localizer-acceptance: BENCH_SETS: unknown set '$set' (kitti euroc sim)" >&2; exit 2 ;;
   esac

@@ -18,6 +18,8 @@ void VisitOptions(Options& o, Visitor&& v) {
   v("detector", "fast_threshold", o.detector.fast_threshold);
   v("detector", "num_levels", o.detector.num_levels);
   v("detector", "scale_factor", o.detector.scale_factor);
+  v("detector", "fill_levels", o.detector.fill_levels);
+  v("detector", "fill_below_keypoints", o.detector.fill_below_keypoints);
   v("detector", "grid_cols", o.detector.grid_cols);
   v("detector", "grid_rows", o.detector.grid_rows);
   v("detector", "max_per_cell", o.detector.max_per_cell);
@@ -55,6 +57,11 @@ std::string DetectorOptions::Validate() const {
   if (!(std::isfinite(scale_factor) && scale_factor > 1.0 && scale_factor <= 2.0)) {
     return "scale_factor: expected in (1, 2]";
   }
+  if (fill_levels < 0 || num_levels + fill_levels > 12) {
+    return "fill_levels: expected >= 0 and num_levels + fill_levels <= 12";
+  }
+  if (fill_levels > 0 && type != "orb") return "fill_levels: expected 0 for type \"fast\"";
+  VILMA_RETURN_IF_ERROR(ValidateAtLeast("fill_below_keypoints", fill_below_keypoints, 0));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("grid_cols", grid_cols, 1));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("grid_rows", grid_rows, 1));
   VILMA_RETURN_IF_ERROR(ValidateAtLeast("max_per_cell", max_per_cell, 1));
@@ -154,6 +161,7 @@ KeyframeFeatureOptions LocalizationQueryFeatureOptions() {
   KeyframeFeatureOptions f;
   f.detector.num_levels = 3;             // scales 1, 1.2, 1.44
   f.descriptor.scale_with_level = true;  // BRISK pattern follows the level: scale invariant
+  f.detector.fill_levels = 3;            // close-ups: scales 1.73, 2.07, 2.49 below 150 keypoints
   return f;
 }
 

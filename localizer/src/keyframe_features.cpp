@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <tuple>
 #include <opencv2/imgproc.hpp>
 
 #include "vilma/core/error.h"
@@ -54,9 +56,15 @@ void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
                                         int height, int grid_cols, int grid_rows,
                                         int max_per_cell, int max_total,
-                                        double min_distance) {
+                                        double min_distance, int fill_octave) {
+  // Fill keypoints (octave >= fill_octave) after all others: in the suppression, in each
+  // cell's ranking and in the global cap.
+  const auto is_fill = [fill_octave](const cv::KeyPoint& kp) { return kp.octave >= fill_octave; };
   std::vector<cv::KeyPoint> sorted = keypoints;
-  std::sort(sorted.begin(), sorted.end(), BetterKeypoint);
+  std::sort(sorted.begin(), sorted.end(), [&](const cv::KeyPoint& a, const cv::KeyPoint& b) {
+    if (is_fill(a) != is_fill(b)) return !is_fill(a);
+    return BetterKeypoint(a, b);
+  });
   std::vector<int> cell_count(static_cast<std::size_t>(grid_cols * grid_rows), 0);
   std::vector<cv::KeyPoint> selected;
   const double cell_w = static_cast<double>(width) / grid_cols;
@@ -96,7 +104,7 @@ std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoin
     kept = sorted;
   }
   // 2. Rank of each keypoint within its cell (0 = best); at most max_per_cell per cell.
-  std::vector<std::pair<int, int>> rank_index;  // (rank in cell, index in `kept`)
+  std::vector<std::tuple<int, int, int>> rank_index;  // (fill tier, rank in cell, index in `kept`)
   rank_index.reserve(kept.size());
   for (std::size_t i = 0; i < kept.size(); ++i) {
     const cv::KeyPoint& kp = kept[i];
@@ -104,18 +112,20 @@ std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoin
     const int cy = std::clamp(static_cast<int>((kp.pt.y + 0.5) / cell_h), 0, grid_rows - 1);
     int& count = cell_count[static_cast<std::size_t>(cy * grid_cols + cx)];
     if (count >= max_per_cell) continue;
-    rank_index.emplace_back(count++, static_cast<int>(i));
+    rank_index.emplace_back(is_fill(kp) ? 1 : 0, count++, static_cast<int>(i));
   }
   // 3. The global cap takes every cell's best, then every cell's second best, ... so that
   // weakly textured cells keep their best keypoints ("round robin"); within a rank, best
-  // score first (indices follow the score order).
+  // score first (indices follow the score order). Fill keypoints only after all others.
   std::sort(rank_index.begin(), rank_index.end());
   if (static_cast<int>(rank_index.size()) > max_total) {
     rank_index.resize(static_cast<std::size_t>(max_total));
   }
   std::sort(rank_index.begin(), rank_index.end(),
-            [](const auto& a, const auto& b) { return a.second < b.second; });
-  for (const auto& ri : rank_index) selected.push_back(kept[static_cast<std::size_t>(ri.second)]);
+            [](const auto& a, const auto& b) { return std::get<2>(a) < std::get<2>(b); });
+  for (const auto& ri : rank_index) {
+    selected.push_back(kept[static_cast<std::size_t>(std::get<2>(ri))]);
+  }
   return selected;
 }
 
@@ -133,6 +143,17 @@ FeatureExtractor::FeatureExtractor(const KeyframeFeatureOptions& options) : opti
   } else {
     detector_ = cv::FastFeatureDetector::create(d.fast_threshold, /*nonmaxSuppression=*/true,
                                                 cv::FastFeatureDetector::TYPE_9_16);
+  }
+  if (d.type == "orb" && d.fill_levels > 0) {
+    // The fill levels as a pyramid of their own on the image scaled by 1 / s^num_levels, so
+    // that the first levels' detections stay exactly those without fill levels (ORB shares
+    // its feature budget among its levels).
+    const double fill_scale = std::pow(d.scale_factor, d.num_levels);
+    const int edge = std::max(static_cast<int>(std::ceil(d.border_px / fill_scale)), 3);
+    fill_detector_ = cv::ORB::create(std::max(8 * d.max_keypoints, 2000),
+                                     static_cast<float>(d.scale_factor), d.fill_levels, edge,
+                                     /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::HARRIS_SCORE,
+                                     /*patchSize=*/31, d.fast_threshold);
   }
   descriptor_ = cv::BRISK::create(/*thresh=*/30, /*octaves=*/0, /*patternScale=*/1.0f);
 }
@@ -154,10 +175,20 @@ KeyframeFeatures FeatureExtractor::Extract(const cv::Mat& image) const {
                                          kp.pt.y > static_cast<float>(image.rows - 1) - b;
                                 }),
                  detected.end());
+  int fill_octave = std::numeric_limits<int>::max();
+  if (fill_detector_ &&
+      static_cast<int>(SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows,
+                                     d.max_per_cell, std::numeric_limits<int>::max(),
+                                     d.min_distance_px)
+                           .size()) < d.fill_below_keypoints) {
+    AppendFillKeypoints(image, &detected);
+    fill_octave = d.num_levels;
+  }
   KeyframeFeatures features;
   features.descriptor_type = options_.descriptor.type;
-  features.keypoints = SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows,
-                                     d.max_per_cell, d.max_keypoints, d.min_distance_px);
+  features.keypoints =
+      SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows, d.max_per_cell,
+                    d.max_keypoints, d.min_distance_px, fill_octave);
   RefineSubpixel(image, d, &features.keypoints);
   // Score is the detector's; BRISK overwrites the angle with its own orientation and removes
   // keypoints whose (scaled) pattern leaves the image; the order of the others is kept.
@@ -170,6 +201,35 @@ KeyframeFeatures FeatureExtractor::Extract(const cv::Mat& image) const {
   descriptor_->compute(image, features.keypoints, features.descriptors);
   if (features.keypoints.empty()) features.descriptors = cv::Mat(0, 64, CV_8U);
   return features;
+}
+
+void FeatureExtractor::AppendFillKeypoints(const cv::Mat& image,
+                                           std::vector<cv::KeyPoint>* keypoints) const {
+  const DetectorOptions& d = options_.detector;
+  const double fill_scale = std::pow(d.scale_factor, d.num_levels);
+  cv::Mat small;
+  cv::resize(image, small,
+             cv::Size(std::max(1, static_cast<int>(std::lround(image.cols / fill_scale))),
+                      std::max(1, static_cast<int>(std::lround(image.rows / fill_scale)))),
+             0.0, 0.0, cv::INTER_AREA);
+  std::vector<cv::KeyPoint> fill;
+  fill_detector_->detect(small, fill);
+  // Back in the full image: (0, 0) is the centre of the top-left pixel at both scales, so
+  // x_full = (x_small + 0.5) s - 0.5; the octave continues the first levels' numbering.
+  const float sx = static_cast<float>(image.cols) / static_cast<float>(small.cols);
+  const float sy = static_cast<float>(image.rows) / static_cast<float>(small.rows);
+  const float b = static_cast<float>(d.border_px);
+  for (cv::KeyPoint kp : fill) {
+    kp.pt.x = (kp.pt.x + 0.5f) * sx - 0.5f;
+    kp.pt.y = (kp.pt.y + 0.5f) * sy - 0.5f;
+    kp.size *= sx;
+    kp.octave = std::max(kp.octave, 0) + d.num_levels;
+    if (kp.pt.x < b || kp.pt.y < b || kp.pt.x > static_cast<float>(image.cols - 1) - b ||
+        kp.pt.y > static_cast<float>(image.rows - 1) - b) {
+      continue;
+    }
+    keypoints->push_back(kp);
+  }
 }
 
 KeyframeFeatures ExtractFeatures(const cv::Mat& image, const KeyframeFeatureOptions& options) {

@@ -110,6 +110,21 @@ TEST_CASE("keyframe feature options: Validate rejects each bad field", "[feature
   o = KeyframeFeatureOptions();
   o.detector.subpixel_max_shift_px = 0.0;
   CHECK(o.Validate().rfind("detector.subpixel_max_shift_px", 0) == 0);
+  o = KeyframeFeatureOptions();
+  o.detector.fill_levels = -1;
+  CHECK(o.Validate().rfind("detector.fill_levels", 0) == 0);
+  o = KeyframeFeatureOptions();
+  o.detector.num_levels = 8;
+  o.detector.fill_levels = 5;
+  CHECK(o.Validate().rfind("detector.fill_levels", 0) == 0);
+  o = KeyframeFeatureOptions();
+  o.detector.type = "fast";
+  o.detector.fill_levels = 2;
+  CHECK(o.Validate().rfind("detector.fill_levels", 0) == 0);
+  o.detector.type = "orb";
+  CHECK(o.Validate().empty());
+  o.detector.fill_below_keypoints = -1;
+  CHECK(o.Validate().rfind("detector.fill_below_keypoints", 0) == 0);
 }
 
 }  // namespace

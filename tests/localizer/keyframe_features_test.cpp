@@ -9,6 +9,7 @@
 #include "localizer/synthetic_texture.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
+#include "vilma/localizer/feature_options.h"
 #include "test_skip.h"
 
 namespace vilma::localizer {
@@ -119,6 +120,122 @@ TEST_CASE("SelectGridded keeps the best per cell", "[features]") {
   REQUIRE(sparse.size() == 4);  // x = 14 (best), 12, 10 and the far one
   CHECK(sparse[0].pt.x == 14.f);
   CHECK(sparse[1].pt.x == 12.f);
+}
+
+TEST_CASE("SelectGridded ranks fill keypoints after all others", "[features]") {
+  // 2x2 grid over 100x100, max 3 per cell. Octave >= 3 marks a fill keypoint; fill keypoints
+  // here have the higher responses.
+  std::vector<cv::KeyPoint> kps;
+  kps.emplace_back(cv::Point2f(10.f, 10.f), 7.f, -1.f, 1.0f, 0);   // cell 0, first level
+  kps.emplace_back(cv::Point2f(20.f, 10.f), 7.f, -1.f, 2.0f, 1);   // cell 0, first level
+  kps.emplace_back(cv::Point2f(30.f, 10.f), 12.f, -1.f, 9.0f, 3);  // cell 0, fill
+  kps.emplace_back(cv::Point2f(40.f, 10.f), 12.f, -1.f, 8.0f, 4);  // cell 0, fill
+  kps.emplace_back(cv::Point2f(21.f, 11.f), 12.f, -1.f, 7.0f, 3);  // cell 0, fill near (20, 10)
+  kps.emplace_back(cv::Point2f(80.f, 80.f), 7.f, -1.f, 0.5f, 2);   // cell 3, first level
+  kps.emplace_back(cv::Point2f(90.f, 80.f), 12.f, -1.f, 5.0f, 5);  // cell 3, fill
+  // Without a fill octave the response decides alone.
+  const auto plain = SelectGridded(kps, 100, 100, 2, 2, 3, 100, 3.0);
+  REQUIRE(plain.size() == 5);
+  CHECK(plain[0].response == 9.0f);
+  // With it: first levels first in each cell; a cell takes fill keypoints only up to its cap;
+  // a first-level keypoint suppresses a fill keypoint near it although that one scores more.
+  const auto filled = SelectGridded(kps, 100, 100, 2, 2, 3, 100, 3.0, 3);
+  REQUIRE(filled.size() == 5);
+  CHECK(filled[0].response == 2.0f);  // first levels, best first
+  CHECK(filled[1].response == 1.0f);
+  CHECK(filled[2].response == 0.5f);
+  CHECK(filled[3].response == 9.0f);  // then fill: cell 0's third place and cell 3's second
+  CHECK(filled[4].response == 5.0f);
+  for (const cv::KeyPoint& kp : filled) CHECK(kp.response != 7.0f);  // suppressed
+  for (const cv::KeyPoint& kp : filled) CHECK(kp.response != 8.0f);  // cell 0 full
+  // The global cap takes every first-level keypoint before any fill keypoint.
+  const auto capped = SelectGridded(kps, 100, 100, 2, 2, 3, 4, 3.0, 3);
+  REQUIRE(capped.size() == 4);
+  CHECK(capped[3].response == 5.0f);  // round robin: cell 3's rank 1 before cell 0's rank 2
+  CHECK(capped[2].response == 0.5f);
+}
+
+// Keypoints of `query` (the centre of `map_image` magnified `zoom` times) whose best match
+// among the map image's keypoints is within 90 bits and where the magnification puts it
+// (3 px in the map image): the matches a close-up query can make against a map seen from
+// farther away.
+int ConsistentMatchesUnderZoom(const KeyframeFeatures& map, const KeyframeFeatures& query,
+                               int width, int height, double zoom) {
+  int consistent = 0;
+  for (int q = 0; q < query.size(); ++q) {
+    int best = 513;
+    int best_m = -1;
+    for (int m = 0; m < map.size(); ++m) {
+      const int h = static_cast<int>(cv::norm(query.descriptors.row(q), map.descriptors.row(m),
+                                              cv::NORM_HAMMING));
+      if (h < best) {
+        best = h;
+        best_m = m;
+      }
+    }
+    if (best_m < 0 || best > 90) continue;
+    // Map-image position of the query keypoint: x_map = c + (x_query - c) / zoom.
+    const cv::Point2f& p = query.keypoints[static_cast<std::size_t>(q)].pt;
+    const cv::Point2f expected(static_cast<float>(0.5 * (width - 1) + (p.x - 0.5 * (width - 1)) / zoom),
+                               static_cast<float>(0.5 * (height - 1) + (p.y - 0.5 * (height - 1)) / zoom));
+    const cv::Point2f d = map.keypoints[static_cast<std::size_t>(best_m)].pt - expected;
+    if (d.dot(d) <= 9.0f) ++consistent;
+  }
+  return consistent;
+}
+
+TEST_CASE("ExtractFeatures: fill levels keep a textured view's keypoints and match a close-up",
+          "[features]") {
+  const int width = 752;
+  const int height = 480;
+  const cv::Mat image = test::TexturedImage(width, height, 21);
+  // The query profile has fill levels; `query` is the same without them.
+  const KeyframeFeatureOptions filled = LocalizationQueryFeatureOptions();
+  REQUIRE(filled.detector.fill_levels == 3);
+  KeyframeFeatureOptions query = filled;
+  query.detector.fill_levels = 0;
+  // A fully textured view fills every cell from the first levels: no fill keypoint is taken
+  // and the features are exactly those without fill levels.
+  const KeyframeFeatures plain_view = ExtractFeatures(image, query);
+  const KeyframeFeatures filled_view = ExtractFeatures(image, filled);
+  REQUIRE(plain_view.size() == filled_view.size());
+  for (int i = 0; i < plain_view.size(); ++i) {
+    const auto u = static_cast<std::size_t>(i);
+    CHECK(plain_view.keypoints[u].pt == filled_view.keypoints[u].pt);
+    CHECK(plain_view.keypoints[u].octave < query.detector.num_levels);
+  }
+  CHECK(cv::norm(plain_view.descriptors, filled_view.descriptors, cv::NORM_HAMMING) == 0.0);
+
+  // A close-up: the image's centre magnified 2.5 times (beyond the first levels' 1.44), its
+  // corners blurred over several pixels, as a camera close to the mapped texture sees it.
+  const double zoom = 2.5;
+  const cv::Mat M = (cv::Mat_<double>(2, 3) << zoom, 0.0, (1.0 - zoom) * 0.5 * (width - 1), 0.0,
+                     zoom, (1.0 - zoom) * 0.5 * (height - 1));
+  cv::Mat close_up;
+  cv::warpAffine(image, close_up, M, image.size(), cv::INTER_LINEAR);
+  cv::GaussianBlur(close_up, close_up, cv::Size(0, 0), 0.8 * zoom);
+  const KeyframeFeatures map = ExtractFeatures(image, KeyframeFeatureOptions());
+  const KeyframeFeatures plain_close = ExtractFeatures(close_up, query);
+  const KeyframeFeatures filled_close = ExtractFeatures(close_up, filled);
+  int fill_keypoints = 0;
+  for (const cv::KeyPoint& kp : filled_close.keypoints) {
+    fill_keypoints += kp.octave >= query.detector.num_levels ? 1 : 0;
+    CHECK(kp.pt.x >= filled.detector.border_px);
+    CHECK(kp.pt.y >= filled.detector.border_px);
+    CHECK(kp.pt.x <= width - 1 - filled.detector.border_px);
+    CHECK(kp.pt.y <= height - 1 - filled.detector.border_px);
+  }
+  CHECK(filled_close.descriptors.rows == filled_close.size());
+  const int plain_matches = ConsistentMatchesUnderZoom(map, plain_close, width, height, zoom);
+  const int filled_matches = ConsistentMatchesUnderZoom(map, filled_close, width, height, zoom);
+  INFO("close-up: " << plain_close.size() << " keypoints, " << plain_matches
+                    << " consistent matches; with fill levels " << filled_close.size() << " ("
+                    << fill_keypoints << " fill), " << filled_matches);
+  // The first levels find few corners in the blurred close-up: the fill levels were added.
+  CHECK(plain_close.size() < filled.detector.fill_below_keypoints);
+  CHECK(fill_keypoints > 0);
+  CHECK(filled_close.size() > plain_close.size());
+  CHECK(filled_matches >= 2 * plain_matches + 10);
 }
 
 TEST_CASE("ExtractFeatures rejects non-grey images and handles a blank one", "[features]") {

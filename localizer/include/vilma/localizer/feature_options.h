@@ -25,6 +25,17 @@ struct DetectorOptions {
   // keyframes the scale barely changes; more levels help matching across distances.
   int num_levels = 1;
   double scale_factor = 1.2;  // pyramid scale step ("orb" only)
+  // Fill levels ("orb" only) for views so close to the texture that it is magnified and
+  // blurred: when the first num_levels levels keep fewer than fill_below_keypoints keypoints
+  // (after suppression and the cell caps, before max_keypoints), fill_levels coarser levels
+  // (scales scale_factor^num_levels, ^(num_levels + 1), ..., detected on their own) add
+  // theirs, which only fill what the first levels leave: a cell gets them after all of its
+  // first-level keypoints and up to max_per_cell, the global cap after every first-level
+  // keypoint, and a first-level keypoint suppresses a fill keypoint near it, never the other
+  // way. They see the texture at the scale a map made from farther away saw it
+  // (docs/localizer.md, "Fill levels for close-up queries"). 0: none.
+  int fill_levels = 0;
+  int fill_below_keypoints = 150;
   int grid_cols = 8;          // grid cells across the image
   int grid_rows = 6;          // grid cells down the image
   int max_per_cell = 15;      // keypoints kept per cell at most
@@ -115,7 +126,10 @@ struct KeyframeFeatureOptions {
 // descriptors stop matching; the map keeps the single-level features that frame-to-frame
 // tracking wants. 4 levels matched as well, but their coarse, less precise keypoints gave more
 // inliers at the same error, so that the min_inliers gate let 5-10 cm results through
-// (docs/daemon.md "Query features").
+// (docs/daemon.md "Query features"). Three fill levels (scales 1.73-2.49) join only for views
+// whose first levels keep fewer than 150 keypoints, a camera so close to the texture that it
+// is magnified and blurred (sim room-s4's revisit of a wall: 92.4 -> 96.6 % recall, every other
+// row of the acceptance benchmark unchanged; docs/localizer.md "Fill levels for close-up queries").
 KeyframeFeatureOptions LocalizationQueryFeatureOptions();
 
 // Strict readers: unknown keys are errors, an absent key or section keeps its value in `base`

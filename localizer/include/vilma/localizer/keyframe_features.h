@@ -5,6 +5,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,8 @@ class FeatureExtractor {
   explicit FeatureExtractor(const KeyframeFeatureOptions& options);
 
   // `image`: 8-bit single channel. Deterministic: the same image and options give the same
-  // features in the same order (sorted by score, best first; ties by position).
+  // features in the same order (sorted by score, best first; ties by position; fill-level
+  // keypoints, DetectorOptions::fill_levels, after all others).
   KeyframeFeatures Extract(const cv::Mat& image) const;
 
   const KeyframeFeatureOptions& options() const { return options_; }
@@ -39,6 +41,11 @@ class FeatureExtractor {
  private:
   KeyframeFeatureOptions options_;
   cv::Ptr<cv::Feature2D> detector_;
+  cv::Ptr<cv::Feature2D> fill_detector_;  // DetectorOptions::fill_levels > 0 only
+
+  // The fill levels' keypoints (DetectorOptions::fill_levels) in `image`'s pixels, inside the
+  // border, appended to `keypoints`.
+  void AppendFillKeypoints(const cv::Mat& image, std::vector<cv::KeyPoint>* keypoints) const;
   cv::Ptr<cv::Feature2D> descriptor_;
 };
 
@@ -53,11 +60,14 @@ void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
 
 // Keeps at most `max_per_cell` keypoints per cell of a grid_cols x grid_rows grid over a
 // width x height image, best response first, then at most `max_total` overall (best first);
-// a keypoint closer than `min_distance` [px] to a better one is dropped. The result is sorted
-// by response (descending), ties broken by y, x, size; deterministic.
+// a keypoint closer than `min_distance` [px] to a better one is dropped. Keypoints of octave
+// >= fill_octave (DetectorOptions::fill_levels) come after all others in each of these steps,
+// whatever their response. The result is sorted by that tier, then by response (descending),
+// ties broken by y, x, size; deterministic.
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
                                         int height, int grid_cols, int grid_rows,
                                         int max_per_cell, int max_total,
-                                        double min_distance = 0.0);
+                                        double min_distance = 0.0,
+                                        int fill_octave = std::numeric_limits<int>::max());
 
 }  // namespace vilma::localizer
