@@ -263,9 +263,12 @@ TEST_CASE("localization query features: built-in profile, file, inline, config f
   const localizer::KeyframeFeatureOptions def = localizer::LocalizationQueryFeatureOptions();
   CHECK(def.detector.num_levels == 3);
   CHECK(def.descriptor.scale_with_level);
+  CHECK(def.detector.fill_levels == 3);  // coarser levels for close-ups (below 150 keypoints)
+  CHECK(mapping::MapBuilderOptions().features.detector.fill_levels == 0);
   localizer::KeyframeFeatureOptions expected = mapping::MapBuilderOptions().features;
   expected.detector.num_levels = 3;
   expected.descriptor.scale_with_level = true;
+  expected.detector.fill_levels = 3;
   CHECK(localizer::KeyframeFeatureOptionsToYaml(def) == localizer::KeyframeFeatureOptionsToYaml(expected));
   CHECK(localizer::KeyframeFeatureOptionsToYaml(LocalizationOptions().features) ==
         localizer::KeyframeFeatureOptionsToYaml(def));
