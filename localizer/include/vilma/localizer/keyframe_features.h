@@ -39,13 +39,13 @@ class FeatureExtractor {
   const KeyframeFeatureOptions& options() const { return options_; }
 
  private:
-  KeyframeFeatureOptions options_;
-  cv::Ptr<cv::Feature2D> detector_;
-  cv::Ptr<cv::Feature2D> fill_detector_;  // DetectorOptions::fill_levels > 0 only
-
   // The fill levels' keypoints (DetectorOptions::fill_levels) in `image`'s pixels, inside the
   // border, appended to `keypoints`.
   void AppendFillKeypoints(const cv::Mat& image, std::vector<cv::KeyPoint>* keypoints) const;
+
+  KeyframeFeatureOptions options_;
+  cv::Ptr<cv::Feature2D> detector_;
+  cv::Ptr<cv::Feature2D> fill_detector_;  // DetectorOptions::fill_levels > 0 only
   cv::Ptr<cv::Feature2D> descriptor_;
 };
 
