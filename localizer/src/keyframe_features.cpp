@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <tuple>
 #include <opencv2/imgproc.hpp>
+#include <tuple>
 
 #include "vilma/core/error.h"
 
@@ -54,9 +54,8 @@ void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
 }
 
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
-                                        int height, int grid_cols, int grid_rows,
-                                        int max_per_cell, int max_total,
-                                        double min_distance, int fill_octave) {
+                                        int height, int grid_cols, int grid_rows, int max_per_cell,
+                                        int max_total, double min_distance, int fill_octave) {
   // Fill keypoints (octave >= fill_octave) after all others: in the suppression, in each
   // cell's ranking and in the global cap.
   const auto is_fill = [fill_octave](const cv::KeyPoint& kp) { return kp.octave >= fill_octave; };

@@ -7,10 +7,10 @@
 #include <string>
 
 #include "localizer/synthetic_texture.h"
+#include "test_skip.h"
 #include "vilma/core/asl_dataset.h"
 #include "vilma/core/error.h"
 #include "vilma/localizer/feature_options.h"
-#include "test_skip.h"
 
 namespace vilma::localizer {
 namespace {
@@ -166,8 +166,8 @@ int ConsistentMatchesUnderZoom(const KeyframeFeatures& map, const KeyframeFeatur
     int best = 513;
     int best_m = -1;
     for (int m = 0; m < map.size(); ++m) {
-      const int h = static_cast<int>(cv::norm(query.descriptors.row(q), map.descriptors.row(m),
-                                              cv::NORM_HAMMING));
+      const int h = static_cast<int>(
+          cv::norm(query.descriptors.row(q), map.descriptors.row(m), cv::NORM_HAMMING));
       if (h < best) {
         best = h;
         best_m = m;
@@ -176,8 +176,9 @@ int ConsistentMatchesUnderZoom(const KeyframeFeatures& map, const KeyframeFeatur
     if (best_m < 0 || best > 90) continue;
     // Map-image position of the query keypoint: x_map = c + (x_query - c) / zoom.
     const cv::Point2f& p = query.keypoints[static_cast<std::size_t>(q)].pt;
-    const cv::Point2f expected(static_cast<float>(0.5 * (width - 1) + (p.x - 0.5 * (width - 1)) / zoom),
-                               static_cast<float>(0.5 * (height - 1) + (p.y - 0.5 * (height - 1)) / zoom));
+    const cv::Point2f expected(
+        static_cast<float>(0.5 * (width - 1) + (p.x - 0.5 * (width - 1)) / zoom),
+        static_cast<float>(0.5 * (height - 1) + (p.y - 0.5 * (height - 1)) / zoom));
     const cv::Point2f d = map.keypoints[static_cast<std::size_t>(best_m)].pt - expected;
     if (d.dot(d) <= 9.0f) ++consistent;
   }

@@ -3,9 +3,9 @@
 // (0, 0) at the centre of the top-left pixel, as in core/camera.h.
 #pragma once
 
+#include <limits>
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
-#include <limits>
 #include <string>
 #include <vector>
 
@@ -65,9 +65,8 @@ void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
 // whatever their response. The result is sorted by that tier, then by response (descending),
 // ties broken by y, x, size; deterministic.
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
-                                        int height, int grid_cols, int grid_rows,
-                                        int max_per_cell, int max_total,
-                                        double min_distance = 0.0,
+                                        int height, int grid_cols, int grid_rows, int max_per_cell,
+                                        int max_total, double min_distance = 0.0,
                                         int fill_octave = std::numeric_limits<int>::max());
 
 }  // namespace vilma::localizer
