@@ -6,14 +6,13 @@
 //     ground-truth map, optionally perturbed like the KITTI cases.
 // Prints a markdown row per data set (with --header the table's header first) and, with
 // --queries, one line per query.
-#include <opencv2/core/utility.hpp>
-
 #include <algorithm>
 #include <exception>
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
 #include <memory>
+#include <opencv2/core/utility.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -23,11 +22,11 @@
 #include "vilma/core/error.h"
 #include "vilma/core/rig.h"
 #include "vilma/eval/localization/acceptance_eval.h"
+#include "vilma/eval/localization/kitti_scenarios.h"
+#include "vilma/eval/localization/residual_calibration.h"
 #include "vilma/localizer/feature_options.h"
 #include "vilma/localizer/keyframe_features.h"
-#include "vilma/eval/localization/kitti_scenarios.h"
 #include "vilma/localizer/localization_map.h"
-#include "vilma/eval/localization/residual_calibration.h"
 #include "vilma/mapping/evaluation/map_evaluation.h"
 
 namespace {
@@ -104,7 +103,7 @@ struct Args {
   int every = 1, first = 0, camera = 0;
   QueryPerturbation perturbation;
   bool header = false, queries = false, help = false;
-  std::vector<int> inlier_frames;  // --inliers: match records of these frames when accepted
+  std::vector<int> inlier_frames;      // --inliers: match records of these frames when accepted
   std::string kitti_map = "subpixel";  // --kitti-map: integer, subpixel or tracks
   uint64_t perturbation_seed = 0;      // --perturbation-seed: added to the scenarios' seeds
 };
@@ -315,8 +314,8 @@ void RunAsl(const Args& a, const LocalizerOptions& options, std::ostream& out) {
     QueryPerturbation p = a.perturbation;
     p.seed += i;
     PerturbQuery(p, camera, &uv, &descriptors, f.descriptors.cols);
-    AcceptanceQuery q =
-        EvaluateAcceptanceQuery(localizer, camera, T_I_C, uv, descriptors, T_W_I, AcceptanceGates());
+    AcceptanceQuery q = EvaluateAcceptanceQuery(localizer, camera, T_I_C, uv, descriptors, T_W_I,
+                                                AcceptanceGates());
     q.frame = static_cast<int>(i);
     queries.push_back(q);
   }
@@ -341,9 +340,9 @@ void RunLandmarks(const Args& a, std::ostream& out) {
   }
   const LandmarkSurfaceCheck c = CheckLandmarksAgainstWorld(map, world);
   out << std::fixed << std::setprecision(3) << "landmarks " << c.landmarks << " of "
-      << map.num_landmarks() << "  chi2/dof " << c.chi2_per_dof << "  median chi2 "
-      << c.median_chi2 << " (0.455 if calibrated)  rms distance " << std::setprecision(4)
-      << c.rms_distance_m << " m  rms sigma " << c.rms_sigma_m << " m\n";
+      << map.num_landmarks() << "  chi2/dof " << c.chi2_per_dof << "  median chi2 " << c.median_chi2
+      << " (0.455 if calibrated)  rms distance " << std::setprecision(4) << c.rms_distance_m
+      << " m  rms sigma " << c.rms_sigma_m << " m\n";
 }
 
 }  // namespace
