@@ -20,6 +20,16 @@ bool BetterKeypoint(const cv::KeyPoint& a, const cv::KeyPoint& b) {
   return a.octave < b.octave;
 }
 
+// True when the descriptor pattern would not fit: closer than border_px to the image border.
+bool OutsideBorder(const cv::KeyPoint& kp, const cv::Mat& image, int border_px) {
+  const float b = static_cast<float>(border_px);
+  return kp.pt.x < b || kp.pt.y < b || kp.pt.x > static_cast<float>(image.cols - 1) - b ||
+         kp.pt.y > static_cast<float>(image.rows - 1) - b;
+}
+
+// The fill levels' pyramid runs on the image scaled by 1 / scale_factor^num_levels.
+double FillScale(const DetectorOptions& d) { return std::pow(d.scale_factor, d.num_levels); }
+
 }  // namespace
 
 void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
@@ -55,7 +65,8 @@ void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
 
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
                                         int height, int grid_cols, int grid_rows, int max_per_cell,
-                                        int max_total, double min_distance, int fill_octave) {
+                                        int max_total, double min_distance, int fill_octave,
+                                        int* num_before_cap) {
   // Fill keypoints (octave >= fill_octave) after all others: in the suppression, in each
   // cell's ranking and in the global cap.
   const auto is_fill = [fill_octave](const cv::KeyPoint& kp) { return kp.octave >= fill_octave; };
@@ -116,6 +127,7 @@ std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoin
   // 3. The global cap takes every cell's best, then every cell's second best, ... so that
   // weakly textured cells keep their best keypoints ("round robin"); within a rank, best
   // score first (indices follow the score order). Fill keypoints only after all others.
+  if (num_before_cap) *num_before_cap = static_cast<int>(rank_index.size());
   std::sort(rank_index.begin(), rank_index.end());
   if (static_cast<int>(rank_index.size()) > max_total) {
     rank_index.resize(static_cast<std::size_t>(max_total));
@@ -147,8 +159,7 @@ FeatureExtractor::FeatureExtractor(const KeyframeFeatureOptions& options) : opti
     // The fill levels as a pyramid of their own on the image scaled by 1 / s^num_levels, so
     // that the first levels' detections stay exactly those without fill levels (ORB shares
     // its feature budget among its levels).
-    const double fill_scale = std::pow(d.scale_factor, d.num_levels);
-    const int edge = std::max(static_cast<int>(std::ceil(d.border_px / fill_scale)), 3);
+    const int edge = std::max(static_cast<int>(std::ceil(d.border_px / FillScale(d))), 3);
     fill_detector_ = cv::ORB::create(std::max(8 * d.max_keypoints, 2000),
                                      static_cast<float>(d.scale_factor), d.fill_levels, edge,
                                      /*firstLevel=*/0, /*WTA_K=*/2, cv::ORB::HARRIS_SCORE,
@@ -166,28 +177,23 @@ KeyframeFeatures FeatureExtractor::Extract(const cv::Mat& image) const {
   std::vector<cv::KeyPoint> detected;
   detector_->detect(image, detected);
   // Border: the descriptor pattern must fit; BRISK would silently drop keypoints otherwise.
-  const float b = static_cast<float>(d.border_px);
-  detected.erase(std::remove_if(detected.begin(), detected.end(),
-                                [&](const cv::KeyPoint& kp) {
-                                  return kp.pt.x < b || kp.pt.y < b ||
-                                         kp.pt.x > static_cast<float>(image.cols - 1) - b ||
-                                         kp.pt.y > static_cast<float>(image.rows - 1) - b;
-                                }),
-                 detected.end());
-  int fill_octave = std::numeric_limits<int>::max();
-  if (fill_detector_ &&
-      static_cast<int>(SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows,
-                                     d.max_per_cell, std::numeric_limits<int>::max(),
-                                     d.min_distance_px)
-                           .size()) < d.fill_below_keypoints) {
-    AppendFillKeypoints(image, &detected);
-    fill_octave = d.num_levels;
-  }
+  detected.erase(
+      std::remove_if(detected.begin(), detected.end(),
+                     [&](const cv::KeyPoint& kp) { return OutsideBorder(kp, image, d.border_px); }),
+      detected.end());
   KeyframeFeatures features;
   features.descriptor_type = options_.descriptor.type;
-  features.keypoints =
-      SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows, d.max_per_cell,
-                    d.max_keypoints, d.min_distance_px, fill_octave);
+  int first_level_kept = 0;  // after suppression and the cell caps, before max_keypoints
+  features.keypoints = SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows,
+                                     d.max_per_cell, d.max_keypoints, d.min_distance_px,
+                                     std::numeric_limits<int>::max(), &first_level_kept);
+  if (fill_detector_ && first_level_kept < d.fill_below_keypoints) {
+    // A close-up: select again with the fill levels' keypoints ranked after these.
+    AppendFillKeypoints(image, &detected);
+    features.keypoints =
+        SelectGridded(detected, image.cols, image.rows, d.grid_cols, d.grid_rows, d.max_per_cell,
+                      d.max_keypoints, d.min_distance_px, d.num_levels);
+  }
   RefineSubpixel(image, d, &features.keypoints);
   // Score is the detector's; BRISK overwrites the angle with its own orientation and removes
   // keypoints whose (scaled) pattern leaves the image; the order of the others is kept.
@@ -205,7 +211,7 @@ KeyframeFeatures FeatureExtractor::Extract(const cv::Mat& image) const {
 void FeatureExtractor::AppendFillKeypoints(const cv::Mat& image,
                                            std::vector<cv::KeyPoint>* keypoints) const {
   const DetectorOptions& d = options_.detector;
-  const double fill_scale = std::pow(d.scale_factor, d.num_levels);
+  const double fill_scale = FillScale(d);
   cv::Mat small;
   cv::resize(image, small,
              cv::Size(std::max(1, static_cast<int>(std::lround(image.cols / fill_scale))),
@@ -217,17 +223,12 @@ void FeatureExtractor::AppendFillKeypoints(const cv::Mat& image,
   // x_full = (x_small + 0.5) s - 0.5; the octave continues the first levels' numbering.
   const float sx = static_cast<float>(image.cols) / static_cast<float>(small.cols);
   const float sy = static_cast<float>(image.rows) / static_cast<float>(small.rows);
-  const float b = static_cast<float>(d.border_px);
   for (cv::KeyPoint kp : fill) {
     kp.pt.x = (kp.pt.x + 0.5f) * sx - 0.5f;
     kp.pt.y = (kp.pt.y + 0.5f) * sy - 0.5f;
     kp.size *= sx;
     kp.octave = std::max(kp.octave, 0) + d.num_levels;
-    if (kp.pt.x < b || kp.pt.y < b || kp.pt.x > static_cast<float>(image.cols - 1) - b ||
-        kp.pt.y > static_cast<float>(image.rows - 1) - b) {
-      continue;
-    }
-    keypoints->push_back(kp);
+    if (!OutsideBorder(kp, image, d.border_px)) keypoints->push_back(kp);
   }
 }
 

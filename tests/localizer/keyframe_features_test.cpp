@@ -149,8 +149,10 @@ TEST_CASE("SelectGridded ranks fill keypoints after all others", "[features]") {
   for (const cv::KeyPoint& kp : filled) CHECK(kp.response != 7.0f);  // suppressed
   for (const cv::KeyPoint& kp : filled) CHECK(kp.response != 8.0f);  // cell 0 full
   // The global cap takes every first-level keypoint before any fill keypoint.
-  const auto capped = SelectGridded(kps, 100, 100, 2, 2, 3, 4, 3.0, 3);
+  int before_cap = -1;
+  const auto capped = SelectGridded(kps, 100, 100, 2, 2, 3, 4, 3.0, 3, &before_cap);
   REQUIRE(capped.size() == 4);
+  CHECK(before_cap == 5);  // what the cap chose from
   CHECK(capped[3].response == 5.0f);  // round robin: cell 3's rank 1 before cell 0's rank 2
   CHECK(capped[2].response == 0.5f);
 }

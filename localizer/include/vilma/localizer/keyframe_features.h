@@ -63,10 +63,12 @@ void RefineSubpixel(const cv::Mat& image, const DetectorOptions& options,
 // a keypoint closer than `min_distance` [px] to a better one is dropped. Keypoints of octave
 // >= fill_octave (DetectorOptions::fill_levels) come after all others in each of these steps,
 // whatever their response. The result is sorted by that tier, then by response (descending),
-// ties broken by y, x, size; deterministic.
+// ties broken by y, x, size; deterministic. num_before_cap (optional): how many were kept
+// before the max_total cap (after the suppression and the cell caps).
 std::vector<cv::KeyPoint> SelectGridded(const std::vector<cv::KeyPoint>& keypoints, int width,
                                         int height, int grid_cols, int grid_rows, int max_per_cell,
                                         int max_total, double min_distance = 0.0,
-                                        int fill_octave = std::numeric_limits<int>::max());
+                                        int fill_octave = std::numeric_limits<int>::max(),
+                                        int* num_before_cap = nullptr);
 
 }  // namespace vilma::localizer
